@@ -1,0 +1,1 @@
+//! DICOM input: header scan, series grouping and sorting, pixel decoding to HU, phantom writer.

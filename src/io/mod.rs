@@ -1,0 +1,1 @@
+//! Formats read and written: contour NDJSON, reports, atomic output files.

@@ -1,0 +1,1 @@
+//! Analytic phantoms: shapes with a known surface, sampled as CT slices.

@@ -1,0 +1,1 @@
+//! Channel wiring: every stage of a run, connected by bounded channels, in one place.

@@ -1,0 +1,2 @@
+//! The pipeline stages, in order. Each is a thin adapter over the kernel; the channels that
+//! connect them are created in [`crate::pipeline`].
