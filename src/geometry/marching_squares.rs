@@ -1,0 +1,248 @@
+//! Iso-contours of a sampled scalar field at sub-pixel precision (marching squares).
+//!
+//! In: a row-major field of `height × width` samples (sample `(r, c)` sits at pixel
+//! coordinates `x = c`, `y = r`) and a level; "inside" is `value >= level`. Out: closed loops in
+//! pixel coordinates, each crossing placed by linear interpolation along its grid edge.
+//!
+//! Invariants: every loop is closed (not repeated at the end) and simple, loops never cross
+//! one another, the inside is on the left of every loop (outer boundaries counter-clockwise,
+//! holes clockwise), and the output depends only on the input (loops in scan order). The
+//! field is treated as surrounded by outside samples, so regions touching the image edge
+//! close half a pixel beyond the last sample. Saddle cells are resolved by the cell-centre
+//! average, the usual choice that keeps the topology consistent between adjacent cells.
+
+use std::collections::HashMap;
+
+use super::polygon::Point;
+
+/// Keep crossings a hair away from grid points: a sample exactly at the level would otherwise
+/// put two crossings of one cell on the same point and give zero-length edges.
+const T_MARGIN: f64 = 1e-4;
+
+/// Closed iso-loops of `field` at `level`. Non-finite samples count as outside.
+pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<Vec<Point>> {
+    assert_eq!(
+        field.len(),
+        width * height,
+        "field size must be width × height"
+    );
+    // Padded grid: one ring of outside samples around the image.
+    let pw = width + 2;
+    let ph = height + 2;
+    let value = |i: usize, j: usize| -> Option<f64> {
+        if i == 0 || j == 0 || i > height || j > width {
+            return None;
+        }
+        let v = field[(i - 1) * width + (j - 1)] as f64;
+        v.is_finite().then_some(v)
+    };
+    let inside = |v: Option<f64>| v.is_some_and(|v| v >= level);
+    // Crossing on the grid edge from a to b (one inside, one outside).
+    let crossing = |va: Option<f64>, vb: Option<f64>| -> f64 {
+        match (va, vb) {
+            (Some(a), Some(b)) => ((level - a) / (b - a)).clamp(T_MARGIN, 1.0 - T_MARGIN),
+            _ => 0.5,
+        }
+    };
+
+    // Edge ids: horizontal edge (i,j)-(i,j+1) = 2·(i·pw+j), vertical (i,j)-(i+1,j) = +1.
+    let h_edge = |i: usize, j: usize| 2 * (i * pw + j);
+    let v_edge = |i: usize, j: usize| 2 * (i * pw + j) + 1;
+
+    let mut points: HashMap<usize, Point> = HashMap::new();
+    // Segments in scan order: from edge → to edge (inside on the left).
+    let mut segments: Vec<(usize, usize)> = Vec::new();
+
+    for i in 0..ph - 1 {
+        for j in 0..pw - 1 {
+            // Corners counter-clockwise in (x, y): TL, TR, BR, BL.
+            let v = [
+                value(i, j),
+                value(i, j + 1),
+                value(i + 1, j + 1),
+                value(i + 1, j),
+            ];
+            let ins = [inside(v[0]), inside(v[1]), inside(v[2]), inside(v[3])];
+            let count = ins.iter().filter(|&&b| b).count();
+            if count == 0 || count == 4 {
+                continue;
+            }
+            // Cell edges in the same order: e_k joins corner k to corner k+1.
+            let edge_ids = [
+                h_edge(i, j),
+                v_edge(i, j + 1),
+                h_edge(i + 1, j),
+                v_edge(i, j),
+            ];
+            // (exit?, edge) for each edge whose ends differ, in counter-clockwise order.
+            let mut crossings: Vec<(bool, usize)> = Vec::with_capacity(4);
+            for (k, &id) in edge_ids.iter().enumerate() {
+                let (a, b) = (k, (k + 1) % 4);
+                if ins[a] == ins[b] {
+                    continue;
+                }
+                points.entry(id).or_insert_with(|| {
+                    let t = crossing(v[a], v[b]);
+                    // Position of corner a and b in padded coordinates.
+                    let corner = |c: usize| match c {
+                        0 => (j as f64, i as f64),
+                        1 => ((j + 1) as f64, i as f64),
+                        2 => ((j + 1) as f64, (i + 1) as f64),
+                        _ => (j as f64, (i + 1) as f64),
+                    };
+                    let (pa, pb) = (corner(a), corner(b));
+                    [
+                        pa.0 + t * (pb.0 - pa.0) - 1.0,
+                        pa.1 + t * (pb.1 - pa.1) - 1.0,
+                    ]
+                });
+                crossings.push((ins[a], id));
+            }
+            // Walking the cell boundary counter-clockwise, the inside region's boundary leaves
+            // the cell edge at an exit and the iso-segment runs back from it to an entry.
+            // One inside run: exit → its entry. Saddle: each exit pairs with the entry before
+            // it (inside corners separate) or after it (inside corners joined through the
+            // centre).
+            if crossings.len() == 2 {
+                let (exit, entry) = if crossings[0].0 {
+                    (crossings[0].1, crossings[1].1)
+                } else {
+                    (crossings[1].1, crossings[0].1)
+                };
+                segments.push((exit, entry));
+            } else {
+                let centre: f64 = v
+                    .iter()
+                    .map(|x| x.unwrap_or(f64::NEG_INFINITY))
+                    .sum::<f64>()
+                    / 4.0;
+                let joined = centre >= level;
+                for k in 0..4 {
+                    if crossings[k].0 {
+                        let entry = if joined { (k + 1) % 4 } else { (k + 3) % 4 };
+                        segments.push((crossings[k].1, crossings[entry].1));
+                    }
+                }
+            }
+        }
+    }
+
+    // Every crossing has exactly one outgoing and one incoming segment: chain them.
+    let next: HashMap<usize, usize> = segments.iter().copied().collect();
+    let mut used: HashMap<usize, bool> = HashMap::with_capacity(segments.len());
+    let mut loops = Vec::new();
+    for &(start, _) in &segments {
+        if used.contains_key(&start) {
+            continue;
+        }
+        let mut lp = Vec::new();
+        let mut e = start;
+        loop {
+            used.insert(e, true);
+            lp.push(points[&e]);
+            e = next[&e];
+            if e == start {
+                break;
+            }
+        }
+        dedup_closed(&mut lp);
+        if lp.len() >= 3 {
+            loops.push(lp);
+        }
+    }
+    loops
+}
+
+/// Remove consecutive repeated points, including a last point equal to the first.
+pub fn dedup_closed(pts: &mut Vec<Point>) {
+    pts.dedup();
+    while pts.len() > 1 && pts.first() == pts.last() {
+        pts.pop();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::polygon::{is_simple, signed_area};
+
+    fn disc_field(w: usize, h: usize, cx: f64, cy: f64, r: f64) -> Vec<f32> {
+        let mut f = vec![0.0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                f[y * w + x] = (r - ((x as f64 - cx).hypot(y as f64 - cy))) as f32;
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn disc_gives_one_ccw_loop_on_the_circle() {
+        let f = disc_field(40, 30, 20.3, 14.7, 9.0);
+        let loops = iso_loops(&f, 40, 30, 0.0);
+        assert_eq!(loops.len(), 1);
+        assert!(signed_area(&loops[0]) > 0.0);
+        assert!(is_simple(&loops[0]));
+        for p in &loops[0] {
+            let r = (p[0] - 20.3).hypot(p[1] - 14.7);
+            assert!((r - 9.0).abs() < 0.05, "point {p:?} at radius {r}");
+        }
+    }
+
+    #[test]
+    fn annulus_gives_ccw_outer_and_cw_hole() {
+        let (w, h) = (50, 50);
+        let mut f = vec![0.0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let r = (x as f64 - 25.0).hypot(y as f64 - 25.0);
+                f[y * w + x] = (6.0 - (r - 15.0).abs()) as f32;
+            }
+        }
+        let mut loops = iso_loops(&f, w, h, 0.0);
+        loops.sort_by(|a, b| signed_area(b).total_cmp(&signed_area(a)));
+        assert_eq!(loops.len(), 2);
+        let (outer, hole) = (signed_area(&loops[0]), signed_area(&loops[1]));
+        assert!(outer > 0.0 && hole < 0.0);
+        let pi = std::f64::consts::PI;
+        assert!((outer - pi * 21.0 * 21.0).abs() / outer < 0.01);
+        assert!((-hole - pi * 9.0 * 9.0).abs() / -hole < 0.01);
+    }
+
+    #[test]
+    fn region_touching_the_edge_closes_half_a_pixel_out() {
+        let f = vec![1.0f32; 4 * 3];
+        let loops = iso_loops(&f, 4, 3, 0.5);
+        assert_eq!(loops.len(), 1);
+        assert!(
+            (signed_area(&loops[0]) - 11.5).abs() < 1e-9,
+            "corners are cut diagonally"
+        );
+        for p in &loops[0] {
+            assert!(p[0] >= -0.5 && p[0] <= 3.5 && p[1] >= -0.5 && p[1] <= 2.5);
+        }
+    }
+
+    #[test]
+    fn saddles_and_nan_stay_consistent() {
+        // A checkerboard exercises every saddle; loops must still be simple and closed.
+        let (w, h) = (6, 5);
+        let mut f: Vec<f32> = (0..w * h)
+            .map(|k| if (k % w + k / w) % 2 == 0 { 1.0 } else { 0.0 })
+            .collect();
+        f[7] = f32::NAN;
+        for level in [0.5, 0.3, 0.7] {
+            for lp in iso_loops(&f, w, h, level) {
+                assert!(is_simple(&lp), "level {level}: {lp:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn sample_exactly_at_level_gives_no_repeated_points() {
+        let f = vec![0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+        let loops = iso_loops(&f, 3, 3, 1.0);
+        assert_eq!(loops.len(), 1);
+        assert!(is_simple(&loops[0]));
+    }
+}

@@ -1,0 +1,203 @@
+//! Planar closed polygons: points `[x, y]` in mm, not repeated at the end.
+//!
+//! Conventions (shared with the whole crate): a positive signed area means counter-clockwise
+//! in (x, y), which is counter-clockwise seen from the slice normal. Outer boundaries are
+//! counter-clockwise, holes clockwise.
+
+pub type Point = [f64; 2];
+
+/// Signed area by the shoelace formula (positive = counter-clockwise).
+pub fn signed_area(pts: &[Point]) -> f64 {
+    let n = pts.len();
+    if n < 3 {
+        return 0.0;
+    }
+    // Shifting by the first point keeps the sum well conditioned far from the origin.
+    let o = pts[0];
+    let mut twice = 0.0;
+    for i in 1..n - 1 {
+        let a = [pts[i][0] - o[0], pts[i][1] - o[1]];
+        let b = [pts[i + 1][0] - o[0], pts[i + 1][1] - o[1]];
+        twice += a[0] * b[1] - a[1] * b[0];
+    }
+    0.5 * twice
+}
+
+/// Length of the closed polygon, closing edge included.
+pub fn perimeter(pts: &[Point]) -> f64 {
+    let n = pts.len();
+    (0..n).map(|i| dist(pts[i], pts[(i + 1) % n])).sum()
+}
+
+pub fn dist(a: Point, b: Point) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// Axis-aligned bounding box `[min_x, min_y, max_x, max_y]`.
+pub fn bbox(pts: &[Point]) -> [f64; 4] {
+    pts.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+/// Whether `p` lies inside the closed polygon (even–odd rule; boundary points are undefined).
+pub fn contains(pts: &[Point], p: Point) -> bool {
+    let n = pts.len();
+    let mut inside = false;
+    let mut j = n.wrapping_sub(1);
+    for i in 0..n {
+        let (a, b) = (pts[i], pts[j]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Distance from `p` to the segment `a`–`b`.
+pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    if len2 == 0.0 {
+        return dist(p, a);
+    }
+    let t = (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0);
+    dist(p, [a[0] + t * d[0], a[1] + t * d[1]])
+}
+
+/// Distance from `p` to the closed polygon's boundary.
+pub fn boundary_distance(pts: &[Point], p: Point) -> f64 {
+    let n = pts.len();
+    (0..n)
+        .map(|i| point_segment_distance(p, pts[i], pts[(i + 1) % n]))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Whether the closed polygon is simple: no two non-adjacent edges touch or cross, and no
+/// edge has zero length. Sweep over edges sorted by their smallest x, so typical contours
+/// cost O(n log n) rather than O(n²).
+pub fn is_simple(pts: &[Point]) -> bool {
+    let n = pts.len();
+    if n < 3 {
+        return false;
+    }
+    if (0..n).any(|i| pts[i] == pts[(i + 1) % n]) {
+        return false;
+    }
+    let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
+    let mut order: Vec<usize> = (0..n).collect();
+    let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
+    order.sort_by(|&a, &b| min_x(a).total_cmp(&min_x(b)));
+    let mut active: Vec<usize> = Vec::new();
+    for &i in &order {
+        let (a, b) = edge(i);
+        let lo = a[0].min(b[0]);
+        active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
+        for &j in &active {
+            let adjacent = (i + 1) % n == j || (j + 1) % n == i;
+            let (c, d) = edge(j);
+            if adjacent {
+                // Adjacent edges share one vertex; they must not fold back onto each other.
+                if n > 3 && collinear_overlap(a, b, c, d) {
+                    return false;
+                }
+            } else if segments_intersect(a, b, c, d) {
+                return false;
+            }
+        }
+        active.push(i);
+    }
+    true
+}
+
+fn orient(a: Point, b: Point, c: Point) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+fn on_segment(a: Point, b: Point, p: Point) -> bool {
+    p[0] >= a[0].min(b[0])
+        && p[0] <= a[0].max(b[0])
+        && p[1] >= a[1].min(b[1])
+        && p[1] <= a[1].max(b[1])
+}
+
+/// Closed-segment intersection test (touching counts).
+pub fn segments_intersect(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let (o1, o2, o3, o4) = (
+        orient(a, b, c),
+        orient(a, b, d),
+        orient(c, d, a),
+        orient(c, d, b),
+    );
+    if ((o1 > 0.0 && o2 < 0.0) || (o1 < 0.0 && o2 > 0.0))
+        && ((o3 > 0.0 && o4 < 0.0) || (o3 < 0.0 && o4 > 0.0))
+    {
+        return true;
+    }
+    (o1 == 0.0 && on_segment(a, b, c))
+        || (o2 == 0.0 && on_segment(a, b, d))
+        || (o3 == 0.0 && on_segment(c, d, a))
+        || (o4 == 0.0 && on_segment(c, d, b))
+}
+
+/// Two edges sharing a vertex overlap when they are collinear and point the same way from it.
+fn collinear_overlap(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let (shared, p, q) = if b == c {
+        (b, a, d)
+    } else if d == a {
+        (a, b, c)
+    } else {
+        return false;
+    };
+    let u = [p[0] - shared[0], p[1] - shared[1]];
+    let v = [q[0] - shared[0], q[1] - shared[1]];
+    u[0] * v[1] - u[1] * v[0] == 0.0 && u[0] * v[0] + u[1] * v[1] > 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SQUARE: [Point; 4] = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+
+    #[test]
+    fn square_area_perimeter_and_containment() {
+        assert_eq!(signed_area(&SQUARE), 4.0);
+        let mut cw = SQUARE.to_vec();
+        cw.reverse();
+        assert_eq!(signed_area(&cw), -4.0);
+        assert_eq!(perimeter(&SQUARE), 8.0);
+        assert!(contains(&SQUARE, [1.0, 1.0]));
+        assert!(!contains(&SQUARE, [3.0, 1.0]));
+        assert_eq!(boundary_distance(&SQUARE, [1.0, 1.5]), 0.5);
+        assert_eq!(bbox(&SQUARE), [0.0, 0.0, 2.0, 2.0]);
+    }
+
+    #[test]
+    fn simplicity_detects_bow_tie_and_spikes() {
+        assert!(is_simple(&SQUARE));
+        let bow_tie = [[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0]];
+        assert!(!is_simple(&bow_tie));
+        let spike = [[0.0, 0.0], [2.0, 0.0], [1.0, 0.0], [1.0, 1.0]];
+        assert!(!is_simple(&spike));
+        let repeated = [[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [1.0, 1.0]];
+        assert!(!is_simple(&repeated));
+    }
+}
