@@ -65,6 +65,10 @@ pub enum Error {
         source: crate::geometry::GeometryError,
     },
 
+    /// A bug: something the code should have prevented (a panicking stage, say).
+    #[error("internal error: {0}")]
+    Internal(String),
+
     /// The run was cancelled (Ctrl-C, or a consumer went away).
     #[error("cancelled")]
     Cancelled,

@@ -24,4 +24,4 @@ pub mod section;
 pub mod stages;
 
 pub use error::{Error, Result};
-pub use section::{Contour, Section, SliceFrame, SliceImage};
+pub use section::{Contour, Section, SeriesSummary, SliceFrame, SliceImage};

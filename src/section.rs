@@ -107,3 +107,20 @@ pub struct Section {
     pub source: SliceSource,
     pub contours: Vec<Contour>,
 }
+
+/// What a run says about its input series (NDJSON header, report).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SeriesSummary {
+    /// SeriesInstanceUID, or the fallback grouping key when the UID is empty.
+    pub uid: String,
+    pub number: Option<i64>,
+    pub description: String,
+    pub modality: String,
+    pub slices: usize,
+    pub rows: usize,
+    pub cols: usize,
+    /// `[between rows, between columns]`, mm.
+    pub pixel_spacing: [f64; 2],
+    /// Where it was read from (a directory, a file, or "-").
+    pub source: String,
+}

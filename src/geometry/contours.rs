@@ -104,7 +104,8 @@ pub fn extract_contours(
         .collect();
     let dropped_small = total - kept.len();
 
-    let parents = nesting(&kept);
+    let refs: Vec<&[Point]> = kept.iter().map(|(lp, _)| lp.as_slice()).collect();
+    let parents = nesting(&refs);
     // Depth parity says hole or not; with fill_holes a hole and its subtree go.
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); kept.len()];
     let mut roots = Vec::new();
@@ -135,24 +136,20 @@ pub fn extract_contours(
     out
 }
 
-/// For each loop, the smallest loop that contains it. Loops never cross (marching squares
-/// guarantees it), so testing one vertex decides containment.
-fn nesting(loops: &[(Vec<Point>, f64)]) -> Vec<Option<usize>> {
-    let boxes: Vec<[f64; 4]> = loops.iter().map(|(lp, _)| bbox(lp)).collect();
+/// For each loop, the smallest loop that contains it (its parent in the nesting tree). Loops
+/// must not cross one another (marching squares guarantees it), so one vertex decides
+/// containment.
+pub fn nesting(loops: &[&[Point]]) -> Vec<Option<usize>> {
+    let boxes: Vec<[f64; 4]> = loops.iter().map(|lp| bbox(lp)).collect();
+    let areas: Vec<f64> = loops.iter().map(|lp| signed_area(lp).abs()).collect();
     let mut by_size: Vec<usize> = (0..loops.len()).collect();
-    by_size.sort_by(|&a, &b| {
-        loops[a]
-            .1
-            .abs()
-            .total_cmp(&loops[b].1.abs())
-            .then(a.cmp(&b))
-    });
+    by_size.sort_by(|&a, &b| areas[a].total_cmp(&areas[b]).then(a.cmp(&b)));
     let mut parent = vec![None; loops.len()];
     for (rank, &i) in by_size.iter().enumerate() {
-        let p = loops[i].0[0];
+        let Some(&p) = loops[i].first() else { continue };
         parent[i] = by_size[rank + 1..].iter().copied().find(|&j| {
             let b = boxes[j];
-            p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3] && contains(&loops[j].0, p)
+            p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3] && contains(loops[j], p)
         });
     }
     parent

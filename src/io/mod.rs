@@ -1,1 +1,4 @@
-//! Formats read and written: contour NDJSON, reports, atomic output files.
+//! Formats read and written: contour NDJSON, and atomic (write-then-rename) output files.
+
+pub mod atomic;
+pub mod ndjson;

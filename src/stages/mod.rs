@@ -1,2 +1,61 @@
-//! The pipeline stages, in order. Each is a thin adapter over the kernel; the channels that
-//! connect them are created in [`crate::pipeline`].
+//! The pipeline stages, in order. Each is a thin adapter over the kernel: it receives items
+//! from a channel, does its work (in parallel with rayon where there is some), and sends the
+//! results on, in input order. The channels themselves are created in [`crate::pipeline`].
+//!
+//! 1. [`s1_load`]: slice images from a pluggable source (a DICOM series, a phantom).
+//! 2. [`s2_contours`]: threshold segmentation, contour extraction, polygon compression.
+
+pub mod s1_load;
+pub mod s2_contours;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Shared by all stages of one run: one flag that every stage checks, so one failure (or
+/// Ctrl-C) stops the whole pipeline.
+#[derive(Clone, Debug, Default)]
+pub struct Control {
+    cancelled: Arc<AtomicBool>,
+}
+
+impl Control {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A control whose flag is `flag` (e.g. set by a Ctrl-C handler).
+    pub fn with_flag(flag: Arc<AtomicBool>) -> Self {
+        Control { cancelled: flag }
+    }
+
+    pub fn cancel(&self) {
+        self.cancelled.store(true, Ordering::SeqCst);
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.cancelled.load(Ordering::SeqCst)
+    }
+
+    /// `Err(Cancelled)` once the run is being stopped.
+    pub fn check(&self) -> crate::Result<()> {
+        if self.is_cancelled() {
+            Err(crate::Error::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// What one stage did: items through it and time spent working (not waiting on channels).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StageStats {
+    pub stage: &'static str,
+    pub items: usize,
+    #[serde(serialize_with = "seconds")]
+    pub busy: Duration,
+}
+
+fn seconds<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(d.as_secs_f64())
+}
