@@ -28,3 +28,37 @@ pub struct ContoursConfig {
     pub contour: ContourOptions,
     pub pipeline: PipelineOptions,
 }
+
+/// Everything `bskin run` needs besides its input and output directory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunConfig {
+    pub contour: ContourOptions,
+    pub pipeline: PipelineOptions,
+    /// Fitting tolerance: every input contour point within this of its surface (mm).
+    pub tolerance_mm: f64,
+    /// Raster cell of the distance maps (branching and capping), mm.
+    pub cell_mm: f64,
+    /// Mesh samples per knot span in u and per curve interval in v.
+    pub mesh_samples_per_span: usize,
+    /// Cap distance for a series of a single section (mm): half of it on each side.
+    pub fallback_spacing_mm: f64,
+}
+
+impl RunConfig {
+    /// Defaults for a tolerance: the distance-map cell a quarter of it (at most 0.1 mm),
+    /// polygon compression a tenth of it (at most the default 0.05 mm).
+    pub fn with_tolerance(tolerance_mm: f64) -> Self {
+        let contour = ContourOptions {
+            compress_tol_mm: (tolerance_mm / 10.0).min(ContourOptions::default().compress_tol_mm),
+            ..Default::default()
+        };
+        RunConfig {
+            contour,
+            pipeline: PipelineOptions::default(),
+            tolerance_mm,
+            cell_mm: (tolerance_mm / 4.0).min(0.1),
+            mesh_samples_per_span: 4,
+            fallback_spacing_mm: 1.0,
+        }
+    }
+}

@@ -17,9 +17,11 @@ pub mod dicom;
 pub mod error;
 pub mod exit_codes;
 pub mod geometry;
+pub mod mesh;
 pub mod io;
 pub mod phantom;
 pub mod pipeline;
+pub mod region;
 pub mod section;
 pub mod stages;
 

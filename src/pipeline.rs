@@ -10,13 +10,21 @@ use std::thread;
 
 use crossbeam_channel::bounded;
 
-use crate::config::ContoursConfig;
+use std::path::Path;
+
+use crate::bspline::fit::FitOptions;
+use crate::config::{ContoursConfig, RunConfig};
+use crate::section::Section;
 use crate::stages::s1_load::{self, SliceImages};
 use crate::stages::s2_contours::{self, CompiledSection};
-use crate::stages::{Control, StageStats};
+use crate::stages::s8_write::Written;
+use crate::stages::{
+    s3_correspondence, s4_branching, s5_alignment, s6_fitting, s7_skinning, s8_write, Control,
+    StageStats,
+};
 use crate::{Error, Result};
 
-/// Totals of a `contours` run.
+/// Totals of a `contours` run (and of the input side of a `run`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ContoursSummary {
     pub stages: Vec<StageStats>,
@@ -81,6 +89,145 @@ pub fn run_contours(
     }
     summary.stages = load.into_iter().chain(contours).collect();
     Ok(summary)
+}
+
+impl ContoursSummary {
+    fn count(&mut self, compiled: &CompiledSection) {
+        let s = &compiled.section;
+        self.sections += 1;
+        self.empty_sections += usize::from(s.contours.is_empty());
+        self.contours += s.contours.len();
+        self.holes += s.contours.iter().filter(|c| c.hole).count();
+        self.points_raw += compiled.points_raw;
+        self.points_compressed += s.contours.iter().map(|c| c.points.len()).sum::<usize>();
+        self.dropped_small += compiled.dropped_small;
+    }
+}
+
+/// Where a `run` gets its sections: slice images to segment (DICOM, phantom), or contours
+/// that a segmentation tool already made (NDJSON).
+pub enum RunInput<'a> {
+    Images(&'a dyn SliceImages),
+    Sections(Box<dyn Iterator<Item = Result<Section>> + Send + 'a>),
+}
+
+/// What a `run` did.
+#[derive(Debug, Default)]
+pub struct RunSummary {
+    pub input: ContoursSummary,
+    pub written: Written,
+    pub stages: Vec<StageStats>,
+}
+
+/// The whole pipeline: sections → correspondence → branching → alignment → fitting →
+/// skinning → writers in `out_dir`. `on_section` is called as each section enters
+/// correspondence (progress).
+pub fn run_surfaces(
+    input: RunInput<'_>,
+    config: &RunConfig,
+    out_dir: &Path,
+    ctl: &Control,
+    on_section: &(dyn Fn(&Section) + Sync),
+) -> Result<RunSummary> {
+    let depth = config.pipeline.channel_depth.max(1);
+    let batch = config.pipeline.batch.max(1);
+    let fit_opts = FitOptions::new(config.tolerance_mm);
+    let (transitions_tx, transitions_rx) = bounded(depth);
+    let (regions_tx, regions_rx) = bounded(depth);
+    let (aligned_tx, aligned_rx) = bounded(depth);
+    let (fitted_tx, fitted_rx) = bounded(depth);
+    let (surfaces_tx, surfaces_rx) = bounded(depth);
+    let mut failure = None;
+    let mut summary = RunSummary::default();
+
+    thread::scope(|scope| {
+        // Stages 1–3: from the input to transitions between adjacent sections.
+        let front = scope.spawn(|| {
+            let mut counts = ContoursSummary::default();
+            let mut stats = Vec::new();
+            let r = match input {
+                RunInput::Images(source) => {
+                    let (images_tx, images_rx) = bounded(depth);
+                    let (sections_tx, sections_rx) = bounded::<CompiledSection>(depth);
+                    thread::scope(|inner| {
+                        let load = inner.spawn(|| {
+                            cancel_on_error(ctl, s1_load::run(source, batch, images_tx, ctl))
+                        });
+                        let contours = inner.spawn(|| {
+                            cancel_on_error(
+                                ctl,
+                                s2_contours::run(images_rx, &config.contour, batch, sections_tx, ctl),
+                            )
+                        });
+                        let sections = sections_rx.iter().map(|c| {
+                            counts.count(&c);
+                            on_section(&c.section);
+                            Ok(c.section)
+                        });
+                        let corr = cancel_on_error(
+                            ctl,
+                            s3_correspondence::run(sections, config.fallback_spacing_mm, transitions_tx, ctl),
+                        );
+                        let mut f = None;
+                        stats.extend(settle(join(load), &mut f));
+                        stats.extend(settle(join(contours), &mut f));
+                        stats.extend(settle(corr, &mut f));
+                        f.map_or(Ok(()), Err)
+                    })
+                }
+                RunInput::Sections(iter) => {
+                    let sections = iter.map(|s| {
+                        let s = s?;
+                        counts.sections += 1;
+                        counts.empty_sections += usize::from(s.contours.is_empty());
+                        counts.contours += s.contours.len();
+                        counts.holes += s.contours.iter().filter(|c| c.hole).count();
+                        let pts = s.contours.iter().map(|c| c.points.len()).sum::<usize>();
+                        counts.points_raw += pts;
+                        counts.points_compressed += pts;
+                        on_section(&s);
+                        Ok(s)
+                    });
+                    let r = s3_correspondence::run(sections, config.fallback_spacing_mm, transitions_tx, ctl);
+                    cancel_on_error(ctl, r).map(|s| stats.push(s))
+                }
+            };
+            r.map(|()| (counts, stats))
+        });
+        let branching = scope.spawn(|| {
+            cancel_on_error(ctl, s4_branching::run(transitions_rx, config.cell_mm, regions_tx, ctl))
+        });
+        let alignment =
+            scope.spawn(|| cancel_on_error(ctl, s5_alignment::run(regions_rx, aligned_tx, ctl)));
+        let fitting = scope.spawn(|| {
+            cancel_on_error(ctl, s6_fitting::run(aligned_rx, &fit_opts, batch, fitted_tx, ctl))
+        });
+        let skinning = scope.spawn(|| {
+            cancel_on_error(
+                ctl,
+                s7_skinning::run(fitted_rx, config.tolerance_mm, surfaces_tx, ctl),
+            )
+        });
+        let written = cancel_on_error(
+            ctl,
+            s8_write::run(surfaces_rx, out_dir, config.tolerance_mm, config.mesh_samples_per_span, ctl),
+        );
+        if let Some((counts, stats)) = settle(join(front), &mut failure) {
+            summary.input = counts;
+            summary.stages.extend(stats);
+        }
+        for h in [branching, alignment, fitting, skinning] {
+            summary.stages.extend(settle(join(h), &mut failure));
+        }
+        if let Some(w) = settle(written, &mut failure) {
+            summary.stages.push(w.stats.clone());
+            summary.written = w;
+        }
+    });
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(summary),
+    }
 }
 
 fn cancel_on_error<T>(ctl: &Control, r: Result<T>) -> Result<T> {

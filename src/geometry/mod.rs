@@ -1,6 +1,7 @@
 //! The planar geometry kernel: polygons, marching squares, polygon compression, input
 //! compilation of a slice, distance maps. Pure: no I/O, no channels, no DICOM types.
 
+pub mod alignment;
 pub mod contours;
 pub mod marching_squares;
 pub mod polygon;

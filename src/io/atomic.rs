@@ -85,3 +85,48 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }
+
+/// Where a stream goes: stdout ("-"), or a file written atomically.
+pub enum Output {
+    Stdout(std::io::BufWriter<std::io::Stdout>),
+    File(AtomicFile),
+}
+
+impl Output {
+    pub fn open(path: &Path) -> Result<Self> {
+        if path.as_os_str() == "-" {
+            Ok(Output::Stdout(std::io::BufWriter::with_capacity(1 << 16, std::io::stdout())))
+        } else {
+            Ok(Output::File(AtomicFile::create(path)?))
+        }
+    }
+
+    /// Flush stdout, or commit the file under its final name.
+    pub fn commit(self) -> Result<()> {
+        match self {
+            Output::Stdout(mut w) => w.flush().map_err(|e| Error::io("stdout", e)),
+            Output::File(f) => f.commit(),
+        }
+    }
+}
+
+impl Write for Output {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Output::Stdout(w) => w.write(buf),
+            Output::File(f) => f.write(buf),
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Output::Stdout(w) => w.flush(),
+            Output::File(f) => f.flush(),
+        }
+    }
+}
+
+impl std::io::Seek for AtomicFile {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.writer.seek(pos)
+    }
+}

@@ -2,3 +2,5 @@
 
 pub mod atomic;
 pub mod ndjson;
+pub mod report;
+pub mod stl;

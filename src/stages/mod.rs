@@ -4,12 +4,24 @@
 //!
 //! 1. [`s1_load`]: slice images from a pluggable source (a DICOM series, a phantom).
 //! 2. [`s2_contours`]: threshold segmentation, contour extraction, polygon compression.
+//! 3. [`s3_correspondence`]: overlap links between adjacent sections → branching problems.
+//! 4. [`s4_branching`]: intermediate contours and caps by distance maps; regions assembled.
+//! 5. [`s5_alignment`]: the shortest baseline per region, so surfaces are not twisted.
+//! 6. [`s6_fitting`]: every region's curves on one common knot vector (Algorithm 2).
+//! 7. [`s7_skinning`]: one bicubic surface per region, and its tolerance certificate.
+//! 8. [`s8_write`]: mesh and report, written under temporary names and renamed.
 
 pub mod s1_load;
 pub mod s2_contours;
+pub mod s3_correspondence;
+pub mod s4_branching;
+pub mod s5_alignment;
+pub mod s6_fitting;
+pub mod s7_skinning;
+pub mod s8_write;
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// Shared by all stages of one run: one flag that every stage checks, so one failure (or
@@ -17,6 +29,7 @@ use std::time::Duration;
 #[derive(Clone, Debug, Default)]
 pub struct Control {
     cancelled: Arc<AtomicBool>,
+    warnings: Arc<Mutex<Vec<String>>>,
 }
 
 impl Control {
@@ -26,7 +39,25 @@ impl Control {
 
     /// A control whose flag is `flag` (e.g. set by a Ctrl-C handler).
     pub fn with_flag(flag: Arc<AtomicBool>) -> Self {
-        Control { cancelled: flag }
+        Control {
+            cancelled: flag,
+            ..Default::default()
+        }
+    }
+
+    /// Record a warning for the report (and log it).
+    pub fn warn(&self, message: String) {
+        tracing::warn!("{message}");
+        if let Ok(mut w) = self.warnings.lock() {
+            w.push(message);
+        }
+    }
+
+    /// The warnings so far, sorted (stages push them from parallel work in any order).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = self.warnings.lock().map(|w| w.clone()).unwrap_or_default();
+        w.sort();
+        w
     }
 
     pub fn cancel(&self) {

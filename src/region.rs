@@ -1,0 +1,53 @@
+//! Single-branching regions (METHOD.md §3, end): after correspondence and branching, every
+//! surface is a chain of closed curves linked 1-to-1, from bottom to top. Each curve is an
+//! original contour, an intermediate contour on a mid-plane, or a cap (a single point, or a
+//! ridge loop when an annulus closes). Points are 3-D patient mm.
+//!
+//! Invariants: a region has at least two curves; all its loops have the same orientation seen
+//! from the slice normal (counter-clockwise for outer walls, clockwise for hole walls); a
+//! single-point curve can only be first or last.
+
+/// Where one curve of a region comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurveOrigin {
+    /// An input contour: its points count towards the tolerance certificate.
+    Contour { slice: usize, contour: usize },
+    /// An intermediate contour of a branching problem, between two slices.
+    Intermediate { below: usize, above: usize },
+    /// Where a region closes off half a slice beyond its last contour.
+    Cap { slice: usize },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegionCurve {
+    /// Closed loop (not repeated at the end), or a single point (degenerate curve).
+    pub points: Vec<[f64; 3]>,
+    pub origin: CurveOrigin,
+}
+
+impl RegionCurve {
+    pub fn is_point(&self) -> bool {
+        self.points.len() == 1
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Region {
+    /// Emission order: deterministic for a given input.
+    pub id: usize,
+    /// The wall of a hole (a void inside the material) rather than an outer wall.
+    pub hole: bool,
+    pub curves: Vec<RegionCurve>,
+}
+
+impl Region {
+    /// Number of input contour points (the paper's "data" side of the reduction ratio).
+    pub fn input_points(&self) -> usize {
+        self.curves
+            .iter()
+            .filter(|c| matches!(c.origin, CurveOrigin::Contour { .. }))
+            .map(|c| c.points.len())
+            .sum()
+    }
+}

@@ -1,0 +1,262 @@
+//! Stage 4: branching by distance maps (METHOD.md §3) and region assembly. For each
+//! transition it computes the intermediate contours of every m-to-n problem and the caps of
+//! every contour without a counterpart, then threads the curves into single-branching regions:
+//! a 1-to-1 link extends a region, a branching ends the regions below at their intermediate
+//! contours and starts new ones above, a cap ends or starts one. A region leaves as soon as it
+//! is closed, so memory holds only the regions still open at the current slice.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crossbeam_channel::{Receiver, Sender};
+use rayon::prelude::*;
+
+use super::s3_correspondence::{Problem, Side, Transition};
+use super::{Control, StageStats};
+use crate::geometry::branching::{intermediate_contours, Intermediate};
+use crate::geometry::capping::cap;
+use crate::geometry::polygon::Point;
+use crate::region::{CurveOrigin, Region, RegionCurve};
+use crate::section::{Section, SliceFrame};
+use crate::{Error, Result};
+
+pub const STAGE: &str = "branching";
+
+/// The curves a problem contributes, in the lower section's frame (2-D), before lifting.
+enum Solved {
+    Link,
+    /// Intermediate contours: one per lower contour, one per upper contour.
+    Branch { lower: Vec<Intermediate>, upper: Vec<Intermediate> },
+    /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
+    Cap { outer: Option<Intermediate>, holes: Vec<Intermediate> },
+}
+
+fn lift(frame: &SliceFrame, p: Point, dz: f64) -> [f64; 3] {
+    let q = frame.to_patient(p);
+    let n = frame.normal();
+    [q[0] + dz * n[0], q[1] + dz * n[1], q[2] + dz * n[2]]
+}
+
+fn lift_curve(frame: &SliceFrame, c: &Intermediate, dz: f64, reverse: bool) -> Vec<[f64; 3]> {
+    match c {
+        Intermediate::Point(p) => vec![lift(frame, *p, dz)],
+        Intermediate::Loop(pts) => {
+            let mut out: Vec<[f64; 3]> = pts.iter().map(|&p| lift(frame, p, dz)).collect();
+            if reverse {
+                out.reverse();
+            }
+            out
+        }
+    }
+}
+
+fn contour_curve(section: &Section, k: usize) -> RegionCurve {
+    RegionCurve {
+        points: section.contours[k].points.iter().map(|&p| section.frame.to_patient(p)).collect(),
+        origin: CurveOrigin::Contour { slice: section.index, contour: k },
+    }
+}
+
+/// Polygons of `section`'s contours `ids`, in `frame`, counter-clockwise (holes reversed, so
+/// the distance-map kernel always sees the region it should fill).
+fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point>> {
+    ids.iter()
+        .map(|&k| {
+            let c = &section.contours[k];
+            let mut pts: Vec<Point> =
+                c.points.iter().map(|&p| frame.to_plane(section.frame.to_patient(p))).collect();
+            if c.hole {
+                pts.reverse();
+            }
+            pts
+        })
+        .collect()
+}
+
+fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
+    let geometry = |e, what: String| Error::Geometry { stage: STAGE, context: what, source: e };
+    match p {
+        Problem::Link { .. } => Ok(Solved::Link),
+        Problem::Branch { lower, upper, .. } => {
+            let (Some(lo), Some(up)) = (&t.lower, &t.upper) else {
+                return Err(Error::Internal("branching problem at the end of the series".into()));
+            };
+            let a = ccw_in(&lo.frame, lo, lower);
+            let b = ccw_in(&lo.frame, up, upper);
+            let a_refs: Vec<&[Point]> = a.iter().map(|v| v.as_slice()).collect();
+            let b_refs: Vec<&[Point]> = b.iter().map(|v| v.as_slice()).collect();
+            let r = intermediate_contours(&a_refs, &b_refs, cell_mm).map_err(|e| {
+                geometry(
+                    e,
+                    format!(
+                        "slices {}–{}, {}-to-{} branching of contours {lower:?} / {upper:?}",
+                        lo.index,
+                        up.index,
+                        lower.len(),
+                        upper.len()
+                    ),
+                )
+            })?;
+            for w in &r.warnings {
+                ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
+            }
+            Ok(Solved::Branch { lower: r.lower, upper: r.upper })
+        }
+        Problem::Cap { side, outer, holes } => {
+            let section = match side {
+                Side::Above => t.lower.as_ref(),
+                Side::Below => t.upper.as_ref(),
+            }
+            .ok_or_else(|| Error::Internal("cap without its section".into()))?;
+            let frame = &section.frame;
+            let hole_pts: Vec<Vec<Point>> = holes.iter().map(|&h| section.contours[h].points.clone()).collect();
+            let what = || format!("slice {}, cap of contours {outer:?} + holes {holes:?}", section.index);
+            match outer {
+                Some(o) => {
+                    let hole_refs: Vec<&[Point]> = hole_pts.iter().map(|v| v.as_slice()).collect();
+                    let caps = cap(&section.contours[*o].points, &hole_refs, cell_mm)
+                        .map_err(|e| geometry(e, what()))?;
+                    for w in &caps.warnings {
+                        ctl.warn(format!("slice {}: {w}", section.index));
+                    }
+                    Ok(Solved::Cap { outer: Some(caps.outer), holes: caps.holes })
+                }
+                None => {
+                    // A lone void closing: cap it as the solid region it bounds.
+                    let void = ccw_in(frame, section, holes);
+                    let caps = cap(&void[0], &[], cell_mm).map_err(|e| geometry(e, what()))?;
+                    Ok(Solved::Cap { outer: None, holes: vec![caps.outer] })
+                }
+            }
+        }
+    }
+}
+
+/// Threads transitions into regions. Holds the regions open at the current section.
+#[derive(Default)]
+pub struct Assembler {
+    /// Open region per contour of the current top section.
+    open: Vec<Option<Region>>,
+    next_id: usize,
+}
+
+impl Assembler {
+    fn close(&mut self, mut r: Region, out: &mut Vec<Region>) {
+        r.id = self.next_id;
+        self.next_id += 1;
+        out.push(r);
+    }
+
+    fn take(&mut self, k: usize, section: &Section) -> Result<Region> {
+        self.open.get_mut(k).and_then(Option::take).ok_or_else(|| {
+            Error::Internal(format!("slice {}: contour {k} has no open region", section.index))
+        })
+    }
+
+    /// Apply one transition; returns the regions it closes, in problem order.
+    pub fn apply(&mut self, t: &Transition, solved: Vec<Solved>) -> Result<Vec<Region>> {
+        let mut closed = Vec::new();
+        let mut next: Vec<Option<Region>> = vec![None; t.upper.as_ref().map_or(0, |u| u.contours.len())];
+        let half = 0.5 * t.spacing;
+        for (p, s) in t.problems.iter().zip(solved) {
+            match (p, s) {
+                (Problem::Link { lower, upper, .. }, Solved::Link) => {
+                    let (lo, up) = both(t)?;
+                    let mut r = self.take(*lower, lo)?;
+                    r.curves.push(contour_curve(up, *upper));
+                    next[*upper] = Some(r);
+                }
+                (Problem::Branch { hole, lower, upper }, Solved::Branch { lower: il, upper: iu }) => {
+                    let (lo, up) = both(t)?;
+                    let origin = CurveOrigin::Intermediate { below: lo.index, above: up.index };
+                    for (&k, c) in lower.iter().zip(&il) {
+                        let mut r = self.take(k, lo)?;
+                        r.curves.push(RegionCurve { points: lift_curve(&lo.frame, c, half, *hole), origin });
+                        self.close(r, &mut closed);
+                    }
+                    for (&k, c) in upper.iter().zip(&iu) {
+                        next[k] = Some(Region {
+                            id: 0,
+                            hole: *hole,
+                            curves: vec![
+                                RegionCurve { points: lift_curve(&lo.frame, c, half, *hole), origin },
+                                contour_curve(up, k),
+                            ],
+                        });
+                    }
+                }
+                (Problem::Cap { side, outer, holes }, Solved::Cap { outer: co, holes: ch }) => {
+                    let mut ends: Vec<(usize, bool, Intermediate)> = Vec::new();
+                    if let (Some(o), Some(c)) = (outer, co) {
+                        ends.push((*o, false, c));
+                    }
+                    ends.extend(holes.iter().zip(ch).map(|(&h, c)| (h, true, c)));
+                    match side {
+                        Side::Above => {
+                            let lo = t.lower.as_ref().ok_or_else(|| Error::Internal("cap above nothing".into()))?;
+                            let origin = CurveOrigin::Cap { slice: lo.index };
+                            for (k, hole, c) in ends {
+                                let mut r = self.take(k, lo)?;
+                                r.curves.push(RegionCurve { points: lift_curve(&lo.frame, &c, half, hole), origin });
+                                self.close(r, &mut closed);
+                            }
+                        }
+                        Side::Below => {
+                            let up = t.upper.as_ref().ok_or_else(|| Error::Internal("cap below nothing".into()))?;
+                            let origin = CurveOrigin::Cap { slice: up.index };
+                            for (k, hole, c) in ends {
+                                next[k] = Some(Region {
+                                    id: 0,
+                                    hole,
+                                    curves: vec![
+                                        RegionCurve { points: lift_curve(&up.frame, &c, -half, hole), origin },
+                                        contour_curve(up, k),
+                                    ],
+                                });
+                            }
+                        }
+                    }
+                }
+                _ => return Err(Error::Internal("problem and solution do not match".into())),
+            }
+        }
+        if let Some(k) = self.open.iter().position(Option::is_some) {
+            return Err(Error::Internal(format!("contour {k} was left without a problem")));
+        }
+        self.open = next;
+        Ok(closed)
+    }
+}
+
+fn both(t: &Transition) -> Result<(&Arc<Section>, &Arc<Section>)> {
+    match (&t.lower, &t.upper) {
+        (Some(a), Some(b)) => Ok((a, b)),
+        _ => Err(Error::Internal("link at the end of the series".into())),
+    }
+}
+
+pub fn run(
+    input: Receiver<Transition>,
+    cell_mm: f64,
+    out: Sender<Region>,
+    ctl: &Control,
+) -> Result<StageStats> {
+    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut assembler = Assembler::default();
+    for t in input.iter() {
+        ctl.check()?;
+        let start = Instant::now();
+        // The problems of one transition are independent: solve them in parallel, in order.
+        let solved: Result<Vec<Solved>> =
+            t.problems.par_iter().map(|p| solve(&t, p, cell_mm, ctl)).collect();
+        let closed = assembler.apply(&t, solved?)?;
+        stats.busy += start.elapsed();
+        for r in closed {
+            stats.items += 1;
+            if out.send(r).is_err() {
+                return Ok(stats);
+            }
+        }
+    }
+    Ok(stats)
+}

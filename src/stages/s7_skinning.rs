@@ -1,0 +1,96 @@
+//! Stage 7: skinning (paper §2.6) and the tolerance certificate. A region's curves become one
+//! bicubic surface, closed in u and open in v; then every input contour point's TRUE distance
+//! to that surface is measured (closest point, seeded at the point's curve parameter), which
+//! is what the report calls the surface error.
+
+use std::time::Instant;
+
+use crossbeam_channel::{Receiver, Sender};
+use rayon::prelude::*;
+
+use super::s6_fitting::{describe, FittedRegion};
+use super::{Control, StageStats};
+use crate::bspline::skinning::skin;
+use crate::bspline::surface::SkinnedSurface;
+use crate::region::{CurveOrigin, Region};
+use crate::{Error, Result};
+
+pub const STAGE: &str = "skinning";
+
+/// Error statistics of a surface against its input contour points (mm).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ErrorStats {
+    pub points: usize,
+    pub max_mm: f64,
+    pub mean_mm: f64,
+    pub rms_mm: f64,
+}
+
+/// One output surface.
+#[derive(Clone, Debug)]
+pub struct Surface {
+    pub region: Region,
+    pub surface: SkinnedSurface,
+    /// Distances of the input contour points to the surface.
+    pub error: ErrorStats,
+    /// Largest curve-fitting error over all curves of the region (intermediate ones too).
+    pub curve_fit_max_mm: f64,
+    pub tolerance_met: bool,
+}
+
+pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
+    let FittedRegion { region, fit } = fitted;
+    let surface = skin(&fit.curves).map_err(|e| Error::Kernel {
+        stage: STAGE,
+        context: describe(&region),
+        source: e,
+    })?;
+    let v_bar = surface.v_bar();
+    let mut dists: Vec<f64> = Vec::new();
+    for (k, c) in region.curves.iter().enumerate() {
+        if !matches!(c.origin, CurveOrigin::Contour { .. }) {
+            continue;
+        }
+        let d: Vec<f64> = fit.points[k]
+            .par_iter()
+            .zip(&fit.params[k])
+            .map(|(p, &u)| surface.closest_point_from(p, u, v_bar[k]).0)
+            .collect();
+        dists.extend(d);
+    }
+    let n = dists.len().max(1) as f64;
+    let error = ErrorStats {
+        points: dists.len(),
+        max_mm: dists.iter().copied().fold(0.0, f64::max),
+        mean_mm: dists.iter().sum::<f64>() / n,
+        rms_mm: (dists.iter().map(|d| d * d).sum::<f64>() / n).sqrt(),
+    };
+    let curve_fit_max_mm = fit.max_errors.iter().copied().fold(0.0, f64::max);
+    Ok(Surface {
+        tolerance_met: error.max_mm <= tolerance && fit.met,
+        region,
+        surface,
+        error,
+        curve_fit_max_mm,
+    })
+}
+
+pub fn run(
+    input: Receiver<FittedRegion>,
+    tolerance: f64,
+    out: Sender<Surface>,
+    ctl: &Control,
+) -> Result<StageStats> {
+    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    for fitted in input.iter() {
+        ctl.check()?;
+        let t = Instant::now();
+        let s = skin_region(fitted, tolerance)?;
+        stats.busy += t.elapsed();
+        stats.items += 1;
+        if out.send(s).is_err() {
+            break;
+        }
+    }
+    Ok(stats)
+}

@@ -1,0 +1,108 @@
+//! Stage 8: writers. Surfaces arrive in region order; each is tessellated and streamed into
+//! `mesh.stl`, and summarised for `report.json`. Files are written under temporary names and
+//! renamed only when complete, so a failed or interrupted run leaves no half-written output.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crossbeam_channel::Receiver;
+
+use super::s7_skinning::Surface;
+use super::{Control, StageStats};
+use crate::io::atomic::AtomicFile;
+use crate::io::report::{FileReport, Report, SurfaceReport};
+use crate::io::stl::StlWriter;
+use crate::mesh::tessellate;
+use crate::region::CurveOrigin;
+use crate::{Error, Result};
+
+pub const STAGE: &str = "write";
+
+pub const MESH_FILE: &str = "mesh.stl";
+pub const REPORT_FILE: &str = "report.json";
+
+/// What the writers produced.
+#[derive(Debug, Default)]
+pub struct Written {
+    pub surfaces: Vec<SurfaceReport>,
+    pub files: Vec<FileReport>,
+    pub stats: StageStats,
+}
+
+fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
+    move |e| Error::Output { path: path.to_path_buf(), source: e }
+}
+
+pub fn summarise(s: &Surface, tolerance: f64, triangles: usize) -> SurfaceReport {
+    let slices: Vec<usize> = s
+        .region
+        .curves
+        .iter()
+        .filter_map(|c| match c.origin {
+            CurveOrigin::Contour { slice, .. } => Some(slice),
+            _ => None,
+        })
+        .collect();
+    SurfaceReport {
+        id: s.region.id,
+        kind: if s.region.hole { "hole" } else { "outer" },
+        control_points: [s.surface.n_u(), s.surface.n_v()],
+        knots: [s.surface.u_knots().extended().len(), s.surface.v_knots().knots().len()],
+        curves: s.region.curves.len(),
+        slices: [slices.iter().min().copied().unwrap_or(0), slices.iter().max().copied().unwrap_or(0)],
+        input_points: s.error.points,
+        max_error_mm: s.error.max_mm,
+        mean_error_mm: s.error.mean_mm,
+        rms_error_mm: s.error.rms_mm,
+        curve_fit_max_mm: s.curve_fit_max_mm,
+        tolerance_mm: tolerance,
+        tolerance_met: s.tolerance_met,
+        triangles,
+    }
+}
+
+pub fn run(
+    input: Receiver<Surface>,
+    out_dir: &Path,
+    tolerance: f64,
+    samples_per_span: usize,
+    ctl: &Control,
+) -> Result<Written> {
+    let mut written = Written { stats: StageStats { stage: STAGE, ..Default::default() }, ..Default::default() };
+    let mesh_path = out_dir.join(MESH_FILE);
+    let err = output_error(&mesh_path);
+    let mut stl = StlWriter::new(AtomicFile::create(&mesh_path)?, "bskin mesh, patient LPS mm").map_err(&err)?;
+    for s in input.iter() {
+        ctl.check()?;
+        let t = Instant::now();
+        let tris = tessellate(&s.surface, samples_per_span);
+        stl.write_triangles(&tris).map_err(&err)?;
+        written.surfaces.push(summarise(&s, tolerance, tris.len()));
+        written.stats.busy += t.elapsed();
+        written.stats.items += 1;
+    }
+    ctl.check()?;
+    let file = stl.finish().map_err(&err)?;
+    file.commit()?;
+    written.files.push(file_report(&mesh_path)?);
+    Ok(written)
+}
+
+pub fn file_report(path: &Path) -> Result<FileReport> {
+    let bytes = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+    Ok(FileReport {
+        name: path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        bytes,
+    })
+}
+
+/// Write `report.json` atomically; returns its path.
+pub fn write_report(out_dir: &Path, report: &Report) -> Result<PathBuf> {
+    use std::io::Write;
+    let path = out_dir.join(REPORT_FILE);
+    let mut f = AtomicFile::create(&path)?;
+    serde_json::to_writer_pretty(&mut f, report).map_err(|e| Error::Output { path: path.clone(), source: e.into() })?;
+    f.write_all(b"\n").map_err(|e| Error::Output { path: path.clone(), source: e })?;
+    f.commit()?;
+    Ok(path)
+}
