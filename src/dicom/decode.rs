@@ -1,0 +1,110 @@
+//! Pixel decoding: one slice of a series into Hounsfield units.
+//!
+//! In: a [`Series`] and one of its [`SliceHeader`]s. Out: a [`SliceImage`] with `rows × cols`
+//! HU values. dicom-pixeldata does the decoding (every codec the crate is built with) and the
+//! BitsStored masking / sign extension; we apply the modality LUT ourselves (slope and intercept
+//! from the header scan: per frame for enhanced objects) because padding must be recognised on
+//! the *stored* value before rescaling. Padding pixels (PixelPaddingValue, or the range up to
+//! PixelPaddingRangeLimit) become `f32::MIN` so that no threshold selects them.
+//!
+//! Errors name the file and, for multi-frame files, the frame.
+
+use dicom_dictionary_std::tags;
+use dicom_object::InMemDicomObject;
+use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder, Rescale};
+
+use super::attr;
+use super::open::{error_chain, open, ts_name, Opened};
+use super::series::{Series, SliceHeader};
+use crate::error::{Error, Result};
+use crate::section::SliceImage;
+
+/// Decodes `slice` (of `series`) into HU; `index` is its position in the sorted series.
+pub fn decode_slice(series: &Series, slice: &SliceHeader, index: usize) -> Result<SliceImage> {
+    let path = &slice.source.path;
+    let at = match slice.source.frame {
+        Some(k) => format!("frame {}: ", k + 1),
+        None => String::new(),
+    };
+    let fail = |m: String| Error::bad_input(path, format!("{at}{m}"));
+    let obj = match open(path, false) {
+        Ok(Opened::Dicom(o)) => o,
+        Ok(_) => {
+            return Err(fail(
+                "no longer a DICOM image (changed since the scan?)".into(),
+            ))
+        }
+        Err(m) => return Err(fail(m)),
+    };
+    let frame = slice.source.frame.unwrap_or(0);
+    let decoded = obj.decode_pixel_data_frame(frame).map_err(|e| {
+        fail(format!(
+            "cannot decode pixel data ({}): {}",
+            ts_name(&slice.transfer_syntax),
+            error_chain(&e)
+        ))
+    })?;
+    let (rows, cols) = (decoded.rows() as usize, decoded.columns() as usize);
+    if rows != slice.rows || cols != slice.cols || rows != series.rows || cols != series.cols {
+        return Err(fail(format!(
+            "decoded image is {cols}×{rows}, header scan said {}×{}",
+            slice.cols, slice.rows
+        )));
+    }
+    if decoded.samples_per_pixel() != 1 {
+        return Err(fail(format!(
+            "{} samples per pixel: only greyscale images have HU",
+            decoded.samples_per_pixel()
+        )));
+    }
+    // Identity modality LUT: the stored values, masked to BitsStored and sign-extended.
+    let opts = ConvertOptions::new().with_modality_lut(ModalityLutOption::Override(Rescale {
+        slope: 1.0,
+        intercept: 0.0,
+    }));
+    let stored: Vec<f64> = decoded
+        .to_vec_frame_with_options(0, &opts)
+        .map_err(|e| fail(format!("cannot convert pixel values: {}", error_chain(&e))))?;
+    if stored.len() != rows * cols {
+        return Err(fail(format!(
+            "{} pixel values for a {cols}×{rows} image",
+            stored.len()
+        )));
+    }
+    let signed = decoded.pixel_representation() == dicom_pixeldata::PixelRepresentation::Signed;
+    let padding = padding_range(&obj, signed, decoded.bits_stored());
+    let hu = stored
+        .iter()
+        .map(|&v| match padding {
+            Some((lo, hi)) if v >= lo && v <= hi => f32::MIN,
+            _ => (v * slice.slope + slice.intercept) as f32,
+        })
+        .collect();
+    Ok(SliceImage {
+        index,
+        frame: slice.frame,
+        source: slice.source.clone(),
+        rows,
+        cols,
+        spacing: slice.spacing,
+        hu,
+    })
+}
+
+/// The stored-value range that marks padding, if the file declares one.
+fn padding_range(obj: &InMemDicomObject, signed: bool, bits_stored: u16) -> Option<(f64, f64)> {
+    let interpret = |v: i64| -> f64 {
+        // PixelPaddingValue is US or SS; a US value written for signed pixels is a bit pattern.
+        let bits = u32::from(bits_stored.clamp(1, 32));
+        if signed && v >= 0 && bits < 64 && v >= (1i64 << (bits - 1)) && v < (1i64 << bits) {
+            (v - (1i64 << bits)) as f64
+        } else {
+            v as f64
+        }
+    };
+    let a = interpret(attr::int(obj, tags::PIXEL_PADDING_VALUE)?);
+    let b = attr::int(obj, tags::PIXEL_PADDING_RANGE_LIMIT)
+        .map(interpret)
+        .unwrap_or(a);
+    Some((a.min(b), a.max(b)))
+}
