@@ -343,9 +343,9 @@ fn build(key: String, files: Vec<RawFile>) -> Series {
     }
     let modality_is_volume = matches!(s.modality.as_str(), "CT" | "MR" | "PT" | "");
 
-    // Per-frame candidates, validated one by one; the first valid one sets the series geometry.
-    let mut geometry: Option<(usize, usize, [f64; 2], [f64; 6])> = None;
-    let mut candidates: Vec<SliceHeader> = Vec::new();
+    // Per-frame candidates, validated one by one; the series geometry is then the most common
+    // one (ties: the first met), so the error names the odd file out, not the first file.
+    let mut valid: Vec<(PathBuf, String, SliceHeader)> = Vec::new();
     for f in &files {
         s.transfer_syntaxes.insert(ts_name(&f.ts_uid));
         if f.image_type.iter().any(|t| t == "LOCALIZER") {
@@ -358,7 +358,10 @@ fn build(key: String, files: Vec<RawFile>) -> Series {
             if !pi.starts_with("MONOCHROME") {
                 s.errors.push((
                     f.path.clone(),
-                    format!("PhotometricInterpretation {pi}: only greyscale (MONOCHROME1/2) images have HU"),
+                    format!(
+                        "PhotometricInterpretation {pi}: only greyscale (MONOCHROME1/2) images \
+                         have HU"
+                    ),
                 ));
                 continue;
             }
@@ -375,32 +378,40 @@ fn build(key: String, files: Vec<RawFile>) -> Series {
         }
         for fr in &f.frames {
             match slice_of(f, fr, modality_is_volume) {
-                Ok(h) => {
-                    match geometry {
-                        None => {
-                            geometry = Some((h.rows, h.cols, h.spacing, orientation_of(&h.frame)))
-                        }
-                        Some((r, c, sp, o)) => {
-                            if let Err(m) = consistent(&h, r, c, sp, o) {
-                                s.errors
-                                    .push((f.path.clone(), format!("{}{m}", frame_prefix(fr))));
-                                continue;
-                            }
-                        }
-                    }
-                    candidates.push(h);
-                }
+                Ok(h) => valid.push((f.path.clone(), frame_prefix(fr), h)),
                 Err(m) => s
                     .errors
                     .push((f.path.clone(), format!("{}{m}", frame_prefix(fr)))),
             }
         }
     }
-    if let Some((r, c, sp, o)) = geometry {
-        s.rows = r;
-        s.cols = c;
-        s.spacing = sp;
-        s.orientation = o;
+    let mut votes: Vec<(usize, usize)> = Vec::new(); // (count, index of its first slice)
+    for (i, (_, _, h)) in valid.iter().enumerate() {
+        match votes
+            .iter_mut()
+            .find(|v| consistent(h, &valid[v.1].2).is_ok())
+        {
+            Some(v) => v.0 += 1,
+            None => votes.push((1, i)),
+        }
+    }
+    let Some(&(_, ref_idx)) = votes
+        .iter()
+        .max_by(|a, b| a.0.cmp(&b.0).then(b.1.cmp(&a.1)))
+    else {
+        return s;
+    };
+    let reference = valid[ref_idx].2.clone();
+    s.rows = reference.rows;
+    s.cols = reference.cols;
+    s.spacing = reference.spacing;
+    s.orientation = orientation_of(&reference.frame);
+    let mut candidates = Vec::with_capacity(valid.len());
+    for (path, prefix, h) in valid {
+        match consistent(&h, &reference) {
+            Ok(()) => candidates.push(h),
+            Err(m) => s.errors.push((path, format!("{prefix}{m}"))),
+        }
     }
     if candidates.is_empty() {
         return s;
@@ -519,29 +530,23 @@ fn slice_of(f: &RawFile, fr: &RawFrame, strict: bool) -> std::result::Result<Sli
     })
 }
 
-fn consistent(
-    h: &SliceHeader,
-    rows: usize,
-    cols: usize,
-    sp: [f64; 2],
-    o: [f64; 6],
-) -> std::result::Result<(), String> {
-    if h.rows != rows || h.cols != cols {
+fn consistent(h: &SliceHeader, r: &SliceHeader) -> std::result::Result<(), String> {
+    if h.rows != r.rows || h.cols != r.cols {
         return Err(format!(
-            "size {}×{} differs from the series' {cols}×{rows}",
-            h.cols, h.rows
+            "size {}×{} differs from the series' {}×{}",
+            h.cols, h.rows, r.cols, r.rows
         ));
     }
-    if (0..2).any(|i| (h.spacing[i] - sp[i]).abs() > 1e-4 * sp[i]) {
+    if (0..2).any(|i| (h.spacing[i] - r.spacing[i]).abs() > 1e-4 * r.spacing[i]) {
         return Err(format!(
-            "PixelSpacing {:?} differs from the series' {sp:?}",
-            h.spacing
+            "PixelSpacing {:?} differs from the series' {:?}",
+            h.spacing, r.spacing
         ));
     }
-    let ho = orientation_of(&h.frame);
-    if (0..6).any(|i| (ho[i] - o[i]).abs() > 1e-3) {
+    let (ho, ro) = (orientation_of(&h.frame), orientation_of(&r.frame));
+    if (0..6).any(|i| (ho[i] - ro[i]).abs() > 1e-3) {
         return Err(format!(
-            "ImageOrientationPatient {ho:?} differs from the series' {o:?}"
+            "ImageOrientationPatient {ho:?} differs from the series' {ro:?}"
         ));
     }
     Ok(())
