@@ -38,10 +38,11 @@ pub fn decode_slice(series: &Series, slice: &SliceHeader, index: usize) -> Resul
     };
     let frame = slice.source.frame.unwrap_or(0);
     let decoded = obj.decode_pixel_data_frame(frame).map_err(|e| {
+        let why = error_chain(&e);
         fail(format!(
-            "cannot decode pixel data ({}): {}",
+            "cannot decode pixel data ({}): {why}{}",
             ts_name(&slice.transfer_syntax),
-            error_chain(&e)
+            hint(&why)
         ))
     })?;
     let (rows, cols) = (decoded.rows() as usize, decoded.columns() as usize);
@@ -89,6 +90,19 @@ pub fn decode_slice(series: &Series, slice: &SliceHeader, index: usize) -> Resul
         spacing: slice.spacing,
         hu,
     })
+}
+
+/// What to do about decoder limitations we know of.
+fn hint(why: &str) -> &'static str {
+    if why.contains("SamplePrecision(12)") {
+        // jpeg-decoder (dicom-pixeldata's native JPEG codec) decodes 12-bit lossless JPEG but
+        // not 12-bit DCT (process 2 & 4).
+        " (12-bit lossy JPEG is not supported by the built-in pure-Rust JPEG decoder; convert \
+         the series to an uncompressed transfer syntax first, e.g. `dcmdjpeg` or \
+         `gdcmconv --raw`)"
+    } else {
+        ""
+    }
 }
 
 /// The stored-value range that marks padding, if the file declares one.
