@@ -13,7 +13,9 @@ use dicom_dictionary_std::tags;
 use dicom_object::InMemDicomObject;
 use dicom_pixeldata::{ConvertOptions, ModalityLutOption, PixelDecoder, Rescale};
 
-use super::attr;
+use std::path::Path;
+
+use super::attr::{self, FrameGroups};
 use super::open::{error_chain, open, ts_name, Opened};
 use super::series::{Series, SliceHeader};
 use crate::error::{Error, Result};
@@ -21,37 +23,93 @@ use crate::section::SliceImage;
 
 /// Decodes `slice` (of `series`) into HU; `index` is its position in the sorted series.
 pub fn decode_slice(series: &Series, slice: &SliceHeader, index: usize) -> Result<SliceImage> {
-    let path = &slice.source.path;
-    let at = match slice.source.frame {
+    let img = decode_frame(
+        &slice.source.path,
+        slice.source.frame,
+        Some((slice.slope, slice.intercept)),
+        &slice.transfer_syntax,
+    )?;
+    if img.rows != slice.rows
+        || img.cols != slice.cols
+        || img.rows != series.rows
+        || img.cols != series.cols
+    {
+        return Err(Error::bad_input(
+            &slice.source.path,
+            format!(
+                "{}decoded image is {}×{}, header scan said {}×{}",
+                frame_prefix(slice.source.frame),
+                img.cols,
+                img.rows,
+                slice.cols,
+                slice.rows
+            ),
+        ));
+    }
+    Ok(SliceImage {
+        index,
+        frame: slice.frame,
+        source: slice.source.clone(),
+        rows: img.rows,
+        cols: img.cols,
+        spacing: slice.spacing,
+        hu: img.hu,
+    })
+}
+
+/// One decoded frame without geometry: for decoder tests and tools that look at single files.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DecodedImage {
+    pub rows: usize,
+    pub cols: usize,
+    /// Row-major values after the modality LUT (HU for CT); padding is `f32::MIN`.
+    pub hu: Vec<f32>,
+}
+
+/// Decodes frame `frame` (0-based; `None` = single-frame) of the file at `path`, with the
+/// file's own RescaleSlope/Intercept (functional groups first for enhanced objects).
+pub fn decode_file(path: &Path, frame: Option<u32>) -> Result<DecodedImage> {
+    decode_frame(path, frame, None, "")
+}
+
+fn frame_prefix(frame: Option<u32>) -> String {
+    match frame {
         Some(k) => format!("frame {}: ", k + 1),
         None => String::new(),
-    };
+    }
+}
+
+/// The common path: open fully, decode one frame, stored values → HU, padding → `f32::MIN`.
+/// `rescale` comes from the header scan when known, else from the file.
+fn decode_frame(
+    path: &Path,
+    frame: Option<u32>,
+    rescale: Option<(f64, f64)>,
+    ts_uid: &str,
+) -> Result<DecodedImage> {
+    let at = frame_prefix(frame);
     let fail = |m: String| Error::bad_input(path, format!("{at}{m}"));
     let obj = match open(path, false) {
         Ok(Opened::Dicom(o)) => o,
-        Ok(_) => {
-            return Err(fail(
-                "no longer a DICOM image (changed since the scan?)".into(),
-            ))
-        }
+        Ok(_) => return Err(fail("not a DICOM image (changed since the scan?)".into())),
         Err(m) => return Err(fail(m)),
     };
-    let frame = slice.source.frame.unwrap_or(0);
-    let decoded = obj.decode_pixel_data_frame(frame).map_err(|e| {
-        let why = error_chain(&e);
-        fail(format!(
-            "cannot decode pixel data ({}): {why}{}",
-            ts_name(&slice.transfer_syntax),
-            hint(&why)
-        ))
-    })?;
+    let ts = if ts_uid.is_empty() {
+        obj.meta().transfer_syntax().to_string()
+    } else {
+        ts_uid.to_string()
+    };
+    let decoded = obj
+        .decode_pixel_data_frame(frame.unwrap_or(0))
+        .map_err(|e| {
+            let why = error_chain(&e);
+            fail(format!(
+                "cannot decode pixel data ({}): {why}{}",
+                ts_name(&ts),
+                hint(&why)
+            ))
+        })?;
     let (rows, cols) = (decoded.rows() as usize, decoded.columns() as usize);
-    if rows != slice.rows || cols != slice.cols || rows != series.rows || cols != series.cols {
-        return Err(fail(format!(
-            "decoded image is {cols}×{rows}, header scan said {}×{}",
-            slice.cols, slice.rows
-        )));
-    }
     if decoded.samples_per_pixel() != 1 {
         return Err(fail(format!(
             "{} samples per pixel: only greyscale images have HU",
@@ -72,24 +130,35 @@ pub fn decode_slice(series: &Series, slice: &SliceHeader, index: usize) -> Resul
             stored.len()
         )));
     }
+    let (slope, intercept) = match rescale {
+        Some(r) => r,
+        None => file_rescale(&obj, frame),
+    };
     let signed = decoded.pixel_representation() == dicom_pixeldata::PixelRepresentation::Signed;
     let padding = padding_range(&obj, signed, decoded.bits_stored());
     let hu = stored
         .iter()
         .map(|&v| match padding {
             Some((lo, hi)) if v >= lo && v <= hi => f32::MIN,
-            _ => (v * slice.slope + slice.intercept) as f32,
+            _ => (v * slope + intercept) as f32,
         })
         .collect();
-    Ok(SliceImage {
-        index,
-        frame: slice.frame,
-        source: slice.source.clone(),
-        rows,
-        cols,
-        spacing: slice.spacing,
-        hu,
-    })
+    Ok(DecodedImage { rows, cols, hu })
+}
+
+/// RescaleSlope/Intercept of a frame as the file states them (1 and 0 when absent).
+fn file_rescale(obj: &InMemDicomObject, frame: Option<u32>) -> (f64, f64) {
+    let g = FrameGroups::new(obj, frame.map(|k| k as usize));
+    let get = |tag| {
+        g.floats(tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE, tag, "")
+            .ok()
+            .flatten()
+            .and_then(|v| v.first().copied())
+    };
+    (
+        get(tags::RESCALE_SLOPE).unwrap_or(1.0),
+        get(tags::RESCALE_INTERCEPT).unwrap_or(0.0),
+    )
 }
 
 /// What to do about decoder limitations we know of.

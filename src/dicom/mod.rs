@@ -22,7 +22,7 @@ pub mod scan;
 pub mod series;
 pub mod write;
 
-pub use decode::decode_slice;
+pub use decode::{decode_file, decode_slice, DecodedImage};
 pub use scan::{scan, Scan};
 pub use series::{select_series, Series, SliceHeader, SpacingStats};
 pub use write::{write_ct_series, WriteOptions};

@@ -7,7 +7,9 @@
 //!
 //! How a file is recognised (the first bytes decide, nothing else):
 //! - `DICM` at offset 128: standard Part 10 file;
-//! - a group 0002 tag at offset 0: file meta without preamble;
+//! - `DICM` at offset 0: magic code and file meta without preamble;
+//! - a group 0002 tag at offset 0: file meta without preamble nor magic code (dicom-rs wants
+//!   the magic code, so it is supplied in front of the bytes);
 //! - a group 0008 tag at offset 0 (little or big endian): a bare data set without file meta, as
 //!   old software and some test sets write. Its transfer syntax is guessed from the bytes (two
 //!   uppercase letters after the tag = explicit VR) and the whole file is read; such files are
@@ -15,7 +17,7 @@
 //! - anything else is not DICOM (counted, never an error).
 
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufReader, Cursor, Read};
 use std::path::Path;
 
 use dicom_dictionary_std::{tags, uids};
@@ -43,8 +45,10 @@ pub(crate) fn open(path: &Path, header_only: bool) -> Result<Opened, String> {
     let head = &head[..n];
     let kind = if n >= 132 && &head[128..132] == b"DICM" {
         Kind::Preamble
-    } else if n >= 8 && head[0..2] == [0x02, 0x00] {
+    } else if n >= 8 && &head[0..4] == b"DICM" {
         Kind::MetaNoPreamble
+    } else if n >= 8 && head[0..2] == [0x02, 0x00] {
+        Kind::MetaNoMagic
     } else if n >= 8 && head[0..2] == [0x08, 0x00] {
         if is_vr(&head[4..6]) {
             Kind::Bare(uids::EXPLICIT_VR_LITTLE_ENDIAN)
@@ -69,6 +73,15 @@ pub(crate) fn open(path: &Path, header_only: bool) -> Result<Opened, String> {
                 opts = opts.read_until(tags::PIXEL_DATA);
             }
             opts.open_file(path).map_err(|e| error_chain(&e))?
+        }
+        Kind::MetaNoMagic => {
+            let mut opts = OpenFileOptions::new().read_preamble(ReadPreamble::Never);
+            if header_only {
+                opts = opts.read_until(tags::PIXEL_DATA);
+            }
+            let f = File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+            opts.from_reader(Cursor::new(b"DICM").chain(BufReader::new(f)))
+                .map_err(|e| format!("file meta without magic code: {}", error_chain(&e)))?
         }
         Kind::Bare(ts_uid) => {
             let ts = TransferSyntaxRegistry
@@ -97,6 +110,7 @@ pub(crate) fn open(path: &Path, header_only: bool) -> Result<Opened, String> {
 enum Kind {
     Preamble,
     MetaNoPreamble,
+    MetaNoMagic,
     Bare(&'static str),
 }
 

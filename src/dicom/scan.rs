@@ -31,6 +31,8 @@ pub struct Scan {
     pub not_dicom: usize,
     /// Files that look like DICOM but could not be read: path and reason.
     pub unreadable: Vec<(PathBuf, String)>,
+    /// DICOM files that hold no image (RT plans, SR, …): path and what they are.
+    pub non_image: Vec<(PathBuf, String)>,
     /// Other things skipped (DICOMDIR, non-image objects), one line each.
     pub notes: Vec<String>,
 }
@@ -115,7 +117,7 @@ pub fn scan(dir: &Path) -> Result<Scan> {
             Outcome::Image(f) => images.push(*f),
             Outcome::NotDicom => scan.not_dicom += 1,
             Outcome::DicomDir => dicomdirs += 1,
-            Outcome::NonImage(why) => non_image.push(format!("{}: {why}", path.display())),
+            Outcome::NonImage(why) => non_image.push((path, why)),
             Outcome::Unreadable(why) => scan.unreadable.push((path, why)),
         }
     }
@@ -124,13 +126,14 @@ pub fn scan(dir: &Path) -> Result<Scan> {
             "{dicomdirs} DICOMDIR file(s) skipped (an index, not images)"
         ));
     }
-    if !non_image.is_empty() {
+    if let Some((p, why)) = non_image.first() {
         scan.notes.push(format!(
-            "{} DICOM file(s) without an image skipped (e.g. {})",
+            "{} DICOM file(s) without an image skipped (e.g. {}: {why})",
             non_image.len(),
-            non_image[0]
+            p.display()
         ));
     }
+    scan.non_image = non_image;
     scan.unreadable.sort();
     scan.series = group(images);
     Ok(scan)
