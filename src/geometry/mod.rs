@@ -1,10 +1,15 @@
 //! The planar geometry kernel: polygons, marching squares, polygon compression, input
 //! compilation of a slice, distance maps. Pure: no I/O, no channels, no DICOM types.
 
+pub mod branching;
+pub mod capping;
 pub mod contours;
+pub mod distance_map;
 pub mod marching_squares;
+pub mod overlap;
 pub mod polygon;
 pub mod simplify;
+mod zones;
 
 /// Errors of the geometry kernel; each states the numbers involved.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -13,4 +18,10 @@ pub enum GeometryError {
     Degenerate(String),
     #[error("non-finite value: {0}")]
     NonFinite(String),
+    #[error("empty input: {0}")]
+    Empty(String),
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+    #[error("raster too large: {0}")]
+    RasterTooLarge(String),
 }
