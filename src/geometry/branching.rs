@@ -36,11 +36,11 @@ use rayon::prelude::*;
 
 use super::distance_map::{bbox_of, signed_distance, validate_polygons, Grid};
 use super::polygon::{contains, signed_area, Point};
-use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, NearestTwo};
+use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
 use super::GeometryError;
 
 /// Largest raster used (samples). Peak memory is about 80 bytes per sample (distance
-/// transform buffers plus the two sections' nearest-two fields), so 8 M samples ≈ 650 MB.
+/// transform buffers plus the two sections' nearest-three fields), so 8 M samples ≈ 650 MB.
 pub const MAX_RASTER_CELLS: usize = 8 << 20;
 
 /// Samples of empty border around the contours' bounding box.
@@ -98,11 +98,11 @@ pub(crate) fn raster_for(
     )))
 }
 
-/// Nearest-two summary of the contours' signed distance fields. Fields are computed a few at
+/// Nearest-three summary of the contours' signed distance fields. Fields are computed a few at
 /// a time in parallel and folded in label order, so memory stays bounded and ties resolve
 /// the same way every run.
-fn nearest_two(grid: &Grid, contours: &[&[Point]]) -> NearestTwo {
-    let mut near = NearestTwo::new(grid.len());
+fn nearest(grid: &Grid, contours: &[&[Point]]) -> Nearest {
+    let mut near = Nearest::new(grid.len());
     let batch = rayon::current_num_threads().max(1);
     for (b, chunk) in contours.chunks(batch).enumerate() {
         let fields: Vec<Vec<f32>> = chunk
@@ -155,8 +155,8 @@ pub fn intermediate_contours(
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
     let cell = grid.cell_mm;
 
-    let near_lower = nearest_two(&grid, lower);
-    let near_upper = nearest_two(&grid, upper);
+    let near_lower = nearest(&grid, lower);
+    let near_upper = nearest(&grid, upper);
     // −φ_M: non-negative on the mid-section M. Since the contours of a section are disjoint,
     // the signed distance to their union is the smallest of their signed distances.
     let neg_phi: Vec<f32> = near_lower
@@ -175,7 +175,7 @@ pub fn intermediate_contours(
     }
 
     // Each contour's zone within M, extracted as loops.
-    let jobs: Vec<(&str, usize, &NearestTwo)> = (0..lower.len())
+    let jobs: Vec<(&str, usize, &Nearest)> = (0..lower.len())
         .map(|i| ("lower", i, &near_lower))
         .chain((0..upper.len()).map(|i| ("upper", i, &near_upper)))
         .collect();

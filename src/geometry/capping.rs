@@ -27,7 +27,7 @@
 use super::branching::{raster_for, Intermediate, SIMPLIFY_TOL_CELLS};
 use super::distance_map::{inside_mask, unsigned_distance, validate_polygons, Grid};
 use super::polygon::{signed_area, Point};
-use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, NearestTwo};
+use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
 use super::GeometryError;
 
 /// The caps of one region: the outer contour's and each hole's, in input order.
@@ -56,7 +56,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
 
     // Zones among the boundary contours, by unsigned distance within the material.
-    let mut near = NearestTwo::new(grid.len());
+    let mut near = Nearest::new(grid.len());
     for (k, c) in all.iter().enumerate() {
         near.add(k as u32, &unsigned_distance(&grid, &[c]));
     }

@@ -2,7 +2,7 @@
 //! to one contour than to the others, bounded by the bisecting edges), extraction of zone
 //! loops at sub-pixel precision, and a compression that keeps shared bisecting edges shared.
 //!
-//! In: per-contour distance fields on one [`Grid`]. Out: the nearest-two summary of those
+//! In: per-contour distance fields on one [`Grid`]. Out: the nearest-three summary of those
 //! fields, zone fields whose zero level is the bisecting edge, world-space loops, and
 //! compressed loops in which every chain shared by two loops is compressed identically.
 //!
@@ -18,24 +18,31 @@ use super::marching_squares::iso_loops;
 use super::polygon::{is_simple, point_segment_distance, signed_area, Point};
 use super::simplify::simplify_closed;
 
-/// For every sample, the smallest and second smallest of the contours' distances, with the
-/// contours that realise them (ties go to the lower label).
-pub(crate) struct NearestTwo {
+/// For every sample, the three smallest of the contours' distances, with the contours that
+/// realise the two smallest (ties go to the lower label).
+pub(crate) struct Nearest {
     pub min1: Vec<f32>,
     pub label1: Vec<u32>,
     pub min2: Vec<f32>,
     pub label2: Vec<u32>,
+    pub min3: Vec<f32>,
 }
 
 pub(crate) const NO_LABEL: u32 = u32::MAX;
 
-impl NearestTwo {
+/// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
+/// level as inside, so an exact tie between two zones must be inside exactly one of them (and
+/// `−0.0 == 0.0`, so a signed zero would not do). Representable in `f32`.
+const TIE: f64 = 1e-30;
+
+impl Nearest {
     pub fn new(len: usize) -> Self {
-        NearestTwo {
+        Nearest {
             min1: vec![f32::INFINITY; len],
             label1: vec![NO_LABEL; len],
             min2: vec![f32::INFINITY; len],
             label2: vec![NO_LABEL; len],
+            min3: vec![f32::INFINITY; len],
         }
     }
 
@@ -44,31 +51,44 @@ impl NearestTwo {
     pub fn add(&mut self, label: u32, d: &[f32]) {
         for (k, &v) in d.iter().enumerate() {
             if v < self.min1[k] {
+                self.min3[k] = self.min2[k];
                 self.min2[k] = self.min1[k];
                 self.label2[k] = self.label1[k];
                 self.min1[k] = v;
                 self.label1[k] = label;
             } else if v < self.min2[k] {
+                self.min3[k] = self.min2[k];
                 self.min2[k] = v;
                 self.label2[k] = label;
+            } else if v < self.min3[k] {
+                self.min3[k] = v;
             }
         }
     }
 
     /// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
-    /// contour `i`. Exact where `i` is one of the two nearest contours; elsewhere `ψ_i` is
-    /// replaced by `d_2 − d_1 ≤ d_i − d_1`, which has the right sign (outside the zone) and only
-    /// shifts crossings in cells where three zones meet. A lone contour's zone is everything
-    /// (`+∞`).
+    /// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the
+    /// two nearest contours, which is where the zone boundary runs except in cells where
+    /// three zones meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used. An exact tie
+    /// goes to the nearest label. A lone contour's zone is everything (`+∞`).
     pub fn neg_psi(&self, i: u32, k: usize) -> f64 {
         let (d1, d2) = (self.min1[k] as f64, self.min2[k] as f64);
         if self.label1[k] == i {
-            d2 - d1
+            let v = d2 - d1;
+            if v == 0.0 {
+                TIE
+            } else {
+                v
+            }
         } else if self.label2[k] == i {
-            d1 - d2
+            let v = d1 - d2;
+            if v == 0.0 {
+                -TIE
+            } else {
+                v
+            }
         } else {
-            // Not among the two nearest: outside the zone by at least d2 − d1.
-            -(d2 - d1)
+            -(self.min3[k] as f64 - d1).max(TIE)
         }
     }
 }
