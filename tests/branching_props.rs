@@ -218,7 +218,8 @@ fn two_to_two_and_one_to_three_tile_the_same_mid_section() {
         .iter()
         .map(|&x| ellipse(x, 0.0, 7.0, 7.0, 300))
         .collect();
-    let cases: Vec<(&str, Vec<&[Point]>, Vec<&[Point]>)> = vec![
+    type Section<'a> = Vec<&'a [Point]>;
+    let cases: Vec<(&str, Section, Section)> = vec![
         ("2-to-2", vec![&l1, &l2], vec![&u1, &u2]),
         ("1-to-3", vec![&w], vec![&t[0], &t[1], &t[2]]),
         ("3-to-1", vec![&t[0], &t[1], &t[2]], vec![&w]),
