@@ -2,10 +2,15 @@
 //! compilation of a slice, distance maps. Pure: no I/O, no channels, no DICOM types.
 
 pub mod alignment;
+pub mod branching;
+pub mod capping;
 pub mod contours;
+pub mod distance_map;
 pub mod marching_squares;
+pub mod overlap;
 pub mod polygon;
 pub mod simplify;
+mod zones;
 
 /// Errors of the geometry kernel; each states the numbers involved.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -14,4 +19,10 @@ pub enum GeometryError {
     Degenerate(String),
     #[error("non-finite value: {0}")]
     NonFinite(String),
+    #[error("empty input: {0}")]
+    Empty(String),
+    #[error("invalid parameter: {0}")]
+    InvalidParameter(String),
+    #[error("raster too large: {0}")]
+    RasterTooLarge(String),
 }

@@ -1,0 +1,330 @@
+//! Intermediate contours of an m-to-n branching problem (METHOD.md §3, paper §2.2).
+//!
+//! In: the m lower contours (section A1, height z1) and the n upper contours (section A2,
+//! z2), filled, counter-clockwise, pairwise disjoint within a section, all in one plane frame
+//! (mm); and the raster cell (mm, e.g. a fifth of the fitting tolerance). Out: one
+//! intermediate contour per input contour on the mid-plane, lower contours first, each a
+//! counter-clockwise simple loop or, when degenerate, a point; plus warnings.
+//!
+//! The construction, in the paper's terms, with distance maps computed exactly:
+//! - the A1/A2 bisecting edges are the zero set of `φ_M = ½(d_A1 + d_A2)` (signed distances,
+//!   negative inside): the mid-section `M = {φ_M ≤ 0}` is the shape-based interpolation of the
+//!   two sections at `z_mid`;
+//! - the zone of lower contour `i` is `{ψ_i ≤ 0}` with `ψ_i = d_i − min_{j≠i} d_j` over the
+//!   lower contours (its boundary is the bisecting edges between colours of A1); likewise
+//!   for the upper contours among themselves;
+//! - the intermediate contour of lower contour `i` is the boundary of `M ∩ zone_i`, extracted
+//!   by marching squares on `min(−φ_M, −ψ_i) ≥ 0`. So the lower intermediate contours tile
+//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges: a
+//!   sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit, so both loops cross each grid
+//!   edge at the same point (paper Fig. 4: c21's contour is `{e1, e2, e7, e6}`). The loops are
+//!   then compressed within a quarter cell with shared chains compressed identically.
+//!
+//! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
+//! - `M ∩ zone_i` in several pieces: the largest piece is kept;
+//! - a piece with holes (possible when `M` itself is annular): the holes are dropped;
+//! - `M ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
+//!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
+//! - `M` empty (no contour overlaps any other): every contour gets the point of largest
+//!   distance inside it (its cap, as the paper does for degeneracy);
+//! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit.
+//!
+//! Invariants: deterministic (no hash-map order reaches the output; rayon only maps
+//! independent items in order), no panics on bad input (errors instead).
+
+use rayon::prelude::*;
+
+use super::distance_map::{bbox_of, signed_distance, validate_polygons, Grid};
+use super::polygon::{contains, signed_area, Point};
+use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
+use super::GeometryError;
+
+/// Largest raster used (samples). Peak memory is about 80 bytes per sample (distance
+/// transform buffers plus the two sections' nearest-three fields), so 8 M samples ≈ 650 MB.
+pub const MAX_RASTER_CELLS: usize = 8 << 20;
+
+/// Samples of empty border around the contours' bounding box.
+const MARGIN_CELLS: usize = 3;
+
+/// Compression tolerance of the output loops, in cells.
+pub const SIMPLIFY_TOL_CELLS: f64 = 0.25;
+
+/// A contour on the intermediate plane: a loop, or a single point when degenerate (a closed
+/// B-spline with all control points equal).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Intermediate {
+    Loop(Vec<Point>),
+    Point(Point),
+}
+
+/// One intermediate contour per input contour, in input order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IntermediateContours {
+    pub lower: Vec<Intermediate>,
+    pub upper: Vec<Intermediate>,
+    pub warnings: Vec<String>,
+}
+
+/// A raster covering the polygons, coarsened (with a warning) if the requested cell would
+/// exceed the cap.
+pub(crate) fn raster_for(
+    polys: &[&[Point]],
+    cell_mm: f64,
+    warnings: &mut Vec<String>,
+) -> Result<Grid, GeometryError> {
+    let bb = bbox_of(polys);
+    let mut cell = cell_mm;
+    for _ in 0..8 {
+        match Grid::covering(bb, cell, MARGIN_CELLS, MAX_RASTER_CELLS) {
+            Ok(g) => {
+                if cell != cell_mm {
+                    warnings.push(format!(
+                        "raster cell coarsened from {cell_mm} mm to {cell:.6} mm to stay within \
+                         {MAX_RASTER_CELLS} samples"
+                    ));
+                }
+                return Ok(g);
+            }
+            Err(GeometryError::RasterTooLarge(_)) => {
+                let m = 2.0 * MARGIN_CELLS as f64 + 1.0;
+                let cells = ((bb[2] - bb[0]) / cell + m) * ((bb[3] - bb[1]) / cell + m);
+                cell *= (cells / MAX_RASTER_CELLS as f64).sqrt().max(1.01) * 1.01;
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Err(GeometryError::RasterTooLarge(format!(
+        "could not fit the bounding box {bb:?} in {MAX_RASTER_CELLS} samples"
+    )))
+}
+
+/// Nearest-three summary of the contours' signed distance fields. Fields are computed a few at
+/// a time in parallel and folded in label order, so memory stays bounded and ties resolve
+/// the same way every run.
+fn nearest(grid: &Grid, contours: &[&[Point]]) -> Nearest {
+    let mut near = Nearest::new(grid.len());
+    let batch = rayon::current_num_threads().max(1);
+    for (b, chunk) in contours.chunks(batch).enumerate() {
+        let fields: Vec<Vec<f32>> = chunk
+            .par_iter()
+            .map(|c| signed_distance(grid, &[c]))
+            .collect();
+        for (k, f) in fields.iter().enumerate() {
+            near.add((b * batch + k) as u32, f);
+        }
+    }
+    near
+}
+
+/// The point of largest distance inside a filled contour (its cap point).
+pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
+    let sd = signed_distance(grid, &[contour]);
+    let best = (0..sd.len()).fold(0, |b, k| if sd[k] < sd[b] { k } else { b });
+    let start = grid.point(best / grid.width, best % grid.width);
+    refine_innermost(&[contour], start, grid.cell_mm)
+}
+
+/// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2).
+pub fn intermediate_contours(
+    lower: &[&[Point]],
+    upper: &[&[Point]],
+    cell_mm: f64,
+) -> Result<IntermediateContours, GeometryError> {
+    if lower.is_empty() || upper.is_empty() {
+        return Err(GeometryError::Empty(format!(
+            "a branching problem needs contours on both sections, got {} lower and {} upper",
+            lower.len(),
+            upper.len()
+        )));
+    }
+    validate_polygons(lower, "lower contour")?;
+    validate_polygons(upper, "upper contour")?;
+    let mut warnings = Vec::new();
+    for (name, set) in [("lower", lower), ("upper", upper)] {
+        for (i, c) in set.iter().enumerate() {
+            if signed_area(c) <= 0.0 {
+                warnings.push(format!(
+                    "{name} contour {i} is not counter-clockwise (area {:.4} mm²); treated as \
+                     filled anyway",
+                    signed_area(c)
+                ));
+            }
+        }
+    }
+    let all: Vec<&[Point]> = lower.iter().chain(upper.iter()).copied().collect();
+    let grid = raster_for(&all, cell_mm, &mut warnings)?;
+    let cell = grid.cell_mm;
+
+    let near_lower = nearest(&grid, lower);
+    let near_upper = nearest(&grid, upper);
+    // −φ_M: non-negative on the mid-section M. Since the contours of a section are disjoint,
+    // the signed distance to their union is the smallest of their signed distances.
+    let neg_phi: Vec<f32> = near_lower
+        .min1
+        .par_iter()
+        .zip(&near_upper.min1)
+        .map(|(&a, &b)| (-0.5 * (a as f64 + b as f64)) as f32)
+        .collect();
+    let m_empty = !neg_phi.iter().any(|&v| v >= 0.0);
+    if m_empty {
+        warnings.push(
+            "the two sections do not overlap on the raster: the mid-section is empty and every \
+             contour closes at its innermost point"
+                .to_string(),
+        );
+    }
+
+    // Each contour's zone within M, extracted as loops.
+    let jobs: Vec<(&str, usize, &Nearest)> = (0..lower.len())
+        .map(|i| ("lower", i, &near_lower))
+        .chain((0..upper.len()).map(|i| ("upper", i, &near_upper)))
+        .collect();
+    let extracted: Vec<(Option<Vec<Point>>, Vec<String>)> = jobs
+        .par_iter()
+        .map(|&(name, i, near)| {
+            let mut notes = Vec::new();
+            if m_empty {
+                return (None, notes);
+            }
+            let field: Vec<f32> = (0..grid.len())
+                .map(|k| (neg_phi[k] as f64).min(near.neg_psi(i as u32, k)) as f32)
+                .collect();
+            let loops = world_loops(&grid, &field);
+            let (best, count, total) = largest_loop(&loops, true);
+            let Some(b) = best else {
+                return (None, notes);
+            };
+            let chosen = loops[b].clone();
+            if count > 1 {
+                notes.push(format!(
+                    "{name} contour {i}: its zone meets the mid-section in {count} pieces; kept \
+                     the largest ({:.4} of {:.4} mm²)",
+                    signed_area(&chosen),
+                    total
+                ));
+            }
+            let holes = loops
+                .iter()
+                .filter(|lp| signed_area(lp) < 0.0 && contains(&chosen, lp[0]))
+                .count();
+            if holes > 0 {
+                notes.push(format!(
+                    "{name} contour {i}: its intermediate region has {holes} hole(s); filled"
+                ));
+            }
+            (Some(chosen), notes)
+        })
+        .collect();
+
+    // Compress all loops together so shared bisecting edges stay shared.
+    let loops: Vec<Vec<Point>> = extracted.iter().filter_map(|(lp, _)| lp.clone()).collect();
+    let mut compressed = simplify_shared(&loops, SIMPLIFY_TOL_CELLS * cell).into_iter();
+
+    let mut out = IntermediateContours::default();
+    for ((name, i, _), (lp, notes)) in jobs.iter().zip(extracted) {
+        warnings.extend(notes);
+        let contour = if *name == "lower" {
+            lower[*i]
+        } else {
+            upper[*i]
+        };
+        let result = match lp {
+            Some(_) => match compressed.next() {
+                Some(c) => Intermediate::Loop(c),
+                None => Intermediate::Point(innermost_point(&grid, contour)),
+            },
+            None if m_empty => Intermediate::Point(innermost_point(&grid, contour)),
+            None => {
+                // The sample of M nearest to the contour.
+                let sd = signed_distance(&grid, &[contour]);
+                let best = (0..grid.len()).filter(|&k| neg_phi[k] >= 0.0).fold(
+                    None,
+                    |b: Option<usize>, k| match b {
+                        Some(bk) if sd[bk] <= sd[k] => Some(bk),
+                        _ => Some(k),
+                    },
+                );
+                let p = match best {
+                    Some(k) => grid.point(k / grid.width, k % grid.width),
+                    None => innermost_point(&grid, contour),
+                };
+                warnings.push(format!(
+                    "{name} contour {i}: its zone misses the mid-section; degenerate \
+                     intermediate contour at the nearest point of the mid-section {p:?}"
+                ));
+                Intermediate::Point(p)
+            }
+        };
+        if *name == "lower" {
+            out.lower.push(result);
+        } else {
+            out.upper.push(result);
+        }
+    }
+    out.warnings = warnings;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::polygon::is_simple;
+
+    fn circle(cx: f64, cy: f64, r: f64, n: usize) -> Vec<Point> {
+        (0..n)
+            .map(|k| {
+                let t = k as f64 * std::f64::consts::TAU / n as f64;
+                [cx + r * t.cos(), cy + r * t.sin()]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn concentric_circles_interpolate_to_the_mean_radius() {
+        let a = circle(1.0, -2.0, 10.0, 400);
+        let b = circle(1.0, -2.0, 6.0, 400);
+        let cell = 0.1;
+        let r = intermediate_contours(&[&a], &[&b], cell).unwrap();
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        for side in [&r.lower[0], &r.upper[0]] {
+            let Intermediate::Loop(lp) = side else {
+                panic!("expected a loop")
+            };
+            assert!(signed_area(lp) > 0.0 && is_simple(lp));
+            for p in lp {
+                let rad = (p[0] - 1.0).hypot(p[1] + 2.0);
+                assert!((rad - 8.0).abs() < cell / 2.0, "radius {rad}");
+            }
+        }
+        assert_eq!(
+            r.lower[0], r.upper[0],
+            "1-to-1: both sides give the same loop"
+        );
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let a = circle(0.0, 0.0, 1.0, 20);
+        assert!(matches!(
+            intermediate_contours(&[], &[&a], 0.1),
+            Err(GeometryError::Empty(_))
+        ));
+        let mut bad = a.clone();
+        bad[3][1] = f64::NAN;
+        assert!(matches!(
+            intermediate_contours(&[&a], &[&bad], 0.1),
+            Err(GeometryError::NonFinite(_))
+        ));
+        assert!(intermediate_contours(&[&a], &[&a], -1.0).is_err());
+        assert!(intermediate_contours(&[&a[..2]], &[&a], 0.1).is_err());
+    }
+
+    #[test]
+    fn huge_raster_is_coarsened_with_a_warning() {
+        let a = circle(0.0, 0.0, 100.0, 100);
+        let mut warnings = Vec::new();
+        let g = raster_for(&[&a], 0.01, &mut warnings).unwrap();
+        assert!(g.len() <= MAX_RASTER_CELLS && g.cell_mm > 0.01);
+        assert!(warnings.iter().any(|w| w.contains("coarsened")));
+    }
+}

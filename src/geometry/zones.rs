@@ -1,0 +1,330 @@
+//! Machinery shared by branching and capping: zones of a set of contours (the points nearer
+//! to one contour than to the others, bounded by the bisecting edges), extraction of zone
+//! loops at sub-pixel precision, and a compression that keeps shared bisecting edges shared.
+//!
+//! In: per-contour distance fields on one [`Grid`]. Out: the nearest-three summary of those
+//! fields, zone fields whose zero level is the bisecting edge, world-space loops, and
+//! compressed loops in which every chain shared by two loops is compressed identically.
+//!
+//! Invariant that makes the shared edges exact: for a sample whose two nearest contours are
+//! `i` and `j`, the zone fields satisfy `ψ_i = d_i − d_j = −ψ_j` bit for bit (IEEE subtraction
+//! is sign-symmetric), so marching squares puts the crossings of both zones' boundaries at
+//! identical points.
+
+use std::collections::HashMap;
+
+use super::distance_map::Grid;
+use super::marching_squares::iso_loops;
+use super::polygon::{is_simple, point_segment_distance, signed_area, Point};
+use super::simplify::simplify_closed;
+
+/// For every sample, the three smallest of the contours' distances, with the contours that
+/// realise the two smallest (ties go to the lower label).
+pub(crate) struct Nearest {
+    pub min1: Vec<f32>,
+    pub label1: Vec<u32>,
+    pub min2: Vec<f32>,
+    pub label2: Vec<u32>,
+    pub min3: Vec<f32>,
+}
+
+pub(crate) const NO_LABEL: u32 = u32::MAX;
+
+/// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
+/// level as inside, so an exact tie between two zones must be inside exactly one of them (and
+/// `−0.0 == 0.0`, so a signed zero would not do). Representable in `f32`.
+const TIE: f64 = 1e-30;
+
+impl Nearest {
+    pub fn new(len: usize) -> Self {
+        Nearest {
+            min1: vec![f32::INFINITY; len],
+            label1: vec![NO_LABEL; len],
+            min2: vec![f32::INFINITY; len],
+            label2: vec![NO_LABEL; len],
+            min3: vec![f32::INFINITY; len],
+        }
+    }
+
+    /// Fold in the distance field of contour `label` (labels must be added in increasing
+    /// order for ties to be deterministic).
+    pub fn add(&mut self, label: u32, d: &[f32]) {
+        for (k, &v) in d.iter().enumerate() {
+            if v < self.min1[k] {
+                self.min3[k] = self.min2[k];
+                self.min2[k] = self.min1[k];
+                self.label2[k] = self.label1[k];
+                self.min1[k] = v;
+                self.label1[k] = label;
+            } else if v < self.min2[k] {
+                self.min3[k] = self.min2[k];
+                self.min2[k] = v;
+                self.label2[k] = label;
+            } else if v < self.min3[k] {
+                self.min3[k] = v;
+            }
+        }
+    }
+
+    /// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
+    /// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the
+    /// two nearest contours, which is where the zone boundary runs except in cells where
+    /// three zones meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used. An exact tie
+    /// goes to the nearest label. A lone contour's zone is everything (`+∞`).
+    pub fn neg_psi(&self, i: u32, k: usize) -> f64 {
+        let (d1, d2) = (self.min1[k] as f64, self.min2[k] as f64);
+        if self.label1[k] == i {
+            let v = d2 - d1;
+            if v == 0.0 {
+                TIE
+            } else {
+                v
+            }
+        } else if self.label2[k] == i {
+            let v = d1 - d2;
+            if v == 0.0 {
+                -TIE
+            } else {
+                v
+            }
+        } else {
+            -(self.min3[k] as f64 - d1).max(TIE)
+        }
+    }
+}
+
+/// Zero-level loops of `field` (inside = `≥ 0`), in world coordinates.
+pub(crate) fn world_loops(grid: &Grid, field: &[f32]) -> Vec<Vec<Point>> {
+    iso_loops(field, grid.width, grid.height, 0.0)
+        .into_iter()
+        .map(|lp| lp.into_iter().map(|p| grid.to_world(p)).collect())
+        .collect()
+}
+
+/// The loop of largest |area| among those with the wanted orientation (`ccw` = positive
+/// area), with how many such loops there were and their total |area|.
+pub(crate) fn largest_loop(loops: &[Vec<Point>], ccw: bool) -> (Option<usize>, usize, f64) {
+    let mut best: Option<(usize, f64)> = None;
+    let (mut count, mut total) = (0, 0.0);
+    for (k, lp) in loops.iter().enumerate() {
+        let a = signed_area(lp);
+        if (a > 0.0) != ccw || a == 0.0 {
+            continue;
+        }
+        count += 1;
+        total += a.abs();
+        if best.map_or(true, |(_, b)| a.abs() > b) {
+            best = Some((k, a.abs()));
+        }
+    }
+    (best.map(|b| b.0), count, total)
+}
+
+fn key(p: Point) -> (u64, u64) {
+    (p[0].to_bits(), p[1].to_bits())
+}
+
+/// Douglas–Peucker on an open chain with both ends kept, run in a canonical direction (from
+/// the end with the smaller key) so the same chain traversed either way compresses to the
+/// same points.
+fn simplify_chain(chain: &[Point], tol: f64) -> Vec<Point> {
+    let n = chain.len();
+    if n <= 2 {
+        return chain.to_vec();
+    }
+    let reversed = key(chain[n - 1]) < key(chain[0]);
+    let pts: Vec<Point> = if reversed {
+        chain.iter().rev().copied().collect()
+    } else {
+        chain.to_vec()
+    };
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    let mut stack = vec![(0usize, n - 1)];
+    while let Some((a, b)) = stack.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let mut worst = (0.0, a);
+        for (i, &p) in pts.iter().enumerate().take(b).skip(a + 1) {
+            let d = point_segment_distance(p, pts[a], pts[b]);
+            if d > worst.0 {
+                worst = (d, i);
+            }
+        }
+        if worst.0 > tol {
+            keep[worst.1] = true;
+            stack.push((a, worst.1));
+            stack.push((worst.1, b));
+        }
+    }
+    let mut out: Vec<Point> = (0..n).filter(|&i| keep[i]).map(|i| pts[i]).collect();
+    if reversed {
+        out.reverse();
+    }
+    out
+}
+
+/// A closed loop compressed from a canonical start and orientation, then put back in the
+/// input's orientation: equal loops compress equally whatever their start or direction.
+fn simplify_whole(lp: &[Point], tol: f64) -> Vec<Point> {
+    let reversed = signed_area(lp) < 0.0;
+    let mut pts: Vec<Point> = lp.to_vec();
+    if reversed {
+        pts.reverse();
+    }
+    let start = (0..pts.len()).min_by_key(|&i| key(pts[i])).unwrap_or(0);
+    pts.rotate_left(start);
+    let mut out = simplify_closed(&pts, tol);
+    if reversed {
+        out.reverse();
+    }
+    out
+}
+
+/// Compress every loop within `tol`, keeping chains shared between loops identical: each
+/// loop is cut into runs of consecutive points owned by the same set of loops (points are
+/// compared bit for bit), the cut points are kept, and each run is compressed in a canonical
+/// direction. A loop whose compression is not simple is retried at half the tolerance, and
+/// left as it was after 6 tries.
+pub(crate) fn simplify_shared(loops: &[Vec<Point>], tol: f64) -> Vec<Vec<Point>> {
+    let mut owners: HashMap<(u64, u64), Vec<u32>> = HashMap::new();
+    for (id, lp) in loops.iter().enumerate() {
+        for &p in lp {
+            let o = owners.entry(key(p)).or_default();
+            if o.last() != Some(&(id as u32)) {
+                o.push(id as u32);
+            }
+        }
+    }
+    let empty: Vec<u32> = Vec::new();
+    loops
+        .iter()
+        .map(|lp| {
+            let n = lp.len();
+            if n <= 4 {
+                return lp.clone();
+            }
+            let sig: Vec<&Vec<u32>> = lp
+                .iter()
+                .map(|&p| owners.get(&key(p)).unwrap_or(&empty))
+                .collect();
+            let starts: Vec<usize> = (0..n).filter(|&k| sig[k] != sig[(k + n - 1) % n]).collect();
+            let mut t = tol;
+            for _ in 0..6 {
+                let out = if starts.is_empty() {
+                    simplify_whole(lp, t)
+                } else {
+                    let mut out = Vec::with_capacity(n);
+                    for (r, &s) in starts.iter().enumerate() {
+                        let e = starts[(r + 1) % starts.len()];
+                        let len = (e + n - s - 1) % n + 1;
+                        let chain: Vec<Point> = (0..len).map(|k| lp[(s + k) % n]).collect();
+                        out.extend(simplify_chain(&chain, t));
+                    }
+                    out
+                };
+                if out.len() >= 3 && is_simple(&out) {
+                    return out;
+                }
+                t *= 0.5;
+            }
+            lp.clone()
+        })
+        .collect()
+}
+
+/// Distance from `p` to the nearest boundary of the polygon set.
+pub(crate) fn set_distance(polys: &[&[Point]], p: Point) -> f64 {
+    polys
+        .iter()
+        .map(|lp| super::polygon::boundary_distance(lp, p))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Refine a grid maximum of the distance to the polygon set's boundary by a compass search
+/// on the exact distance (the distance map peaks in a cone or a ridge, where a parabola fit
+/// is biased; the exact function has no such bias). Starts at `start` with a step of one
+/// cell and stops below 1e-4 cell.
+pub(crate) fn refine_innermost(polys: &[&[Point]], start: Point, cell: f64) -> Point {
+    let mut best = start;
+    let mut value = set_distance(polys, start);
+    let mut step = cell;
+    // Sixteen directions: a ridge of the distance map rarely hides between all of them.
+    let dirs: Vec<Point> = (0..16)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 16.0;
+            [a.cos(), a.sin()]
+        })
+        .collect();
+    let mut guard = 0;
+    while step > 1e-4 * cell && guard < 400 {
+        guard += 1;
+        let mut moved = false;
+        for d in &dirs {
+            let q = [best[0] + step * d[0], best[1] + step * d[1]];
+            let v = set_distance(polys, q);
+            if v > value {
+                value = v;
+                best = q;
+                moved = true;
+                break;
+            }
+        }
+        if !moved {
+            step *= 0.5;
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_chain_compresses_identically_both_ways() {
+        // Two unit-ish squares sharing the wobbly edge x = 1.
+        let wobble: Vec<Point> = (0..=20)
+            .map(|k| [1.0 + 0.001 * ((k * 7 % 5) as f64), k as f64 * 0.05])
+            .collect();
+        let mut left: Vec<Point> = vec![[0.0, 1.0], [0.0, 0.0]];
+        left.extend(wobble.iter().copied());
+        let mut right: Vec<Point> = vec![[2.0, 0.0], [2.0, 1.0]];
+        right.extend(wobble.iter().rev().copied());
+        let out = simplify_shared(&[left, right.clone()], 0.01);
+        let on_edge = |lp: &Vec<Point>| {
+            let mut v: Vec<(u64, u64)> = lp
+                .iter()
+                .filter(|p| p[0] >= 1.0 && p[0] < 1.5)
+                .map(|&p| key(p))
+                .collect();
+            v.sort();
+            v
+        };
+        assert_eq!(on_edge(&out[0]), on_edge(&out[1]));
+        assert!(out[0].len() < 10, "{:?}", out[0]);
+        assert!(is_simple(&out[0]) && is_simple(&out[1]));
+        // Same loop given twice in opposite directions and starts compresses to one shape.
+        let mut back = right.clone();
+        back.reverse();
+        back.rotate_left(3);
+        let both = simplify_shared(&[right, back], 0.01);
+        let mut a: Vec<_> = both[0].iter().map(|&p| key(p)).collect();
+        let mut b: Vec<_> = both[1].iter().map(|&p| key(p)).collect();
+        a.sort();
+        b.sort();
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn innermost_point_of_a_square_is_its_centre() {
+        let sq: Vec<Point> = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
+        let p = refine_innermost(&[&sq], [1.7, 2.3], 0.1);
+        assert!(
+            (p[0] - 2.0).abs() < 1e-3 && (p[1] - 2.0).abs() < 1e-3,
+            "{p:?}"
+        );
+    }
+}

@@ -1,0 +1,58 @@
+//! Timing of a realistic branching problem; ignored by default, run it in release:
+//! `cargo test --release --test branching_perf -- --ignored --nocapture`.
+
+use std::time::Instant;
+
+use bskin::geometry::branching::{intermediate_contours, Intermediate};
+use bskin::geometry::capping::cap;
+use bskin::geometry::polygon::Point;
+
+fn ellipse(cx: f64, cy: f64, a: f64, b: f64, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * std::f64::consts::TAU / n as f64;
+            [cx + a * t.cos(), cy + b * t.sin()]
+        })
+        .collect()
+}
+
+#[test]
+#[ignore = "timing; run in release"]
+fn one_to_two_over_100_by_60_mm_at_0_05_mm() {
+    let lower = ellipse(0.0, 0.0, 50.0, 30.0, 2000);
+    let u1 = ellipse(-24.0, 0.0, 25.0, 27.0, 1200);
+    let u2 = ellipse(26.0, 2.0, 23.0, 25.0, 1200);
+    let cell = 0.05;
+    // Warm up rayon's pool so the measurement is the work alone.
+    let _ = intermediate_contours(&[&lower], &[&u1, &u2], 1.0).unwrap();
+    let t = Instant::now();
+    let r = intermediate_contours(&[&lower], &[&u1, &u2], cell).unwrap();
+    let el = t.elapsed();
+    let pts: Vec<usize> = r
+        .lower
+        .iter()
+        .chain(&r.upper)
+        .map(|i| match i {
+            Intermediate::Loop(l) => l.len(),
+            Intermediate::Point(_) => 1,
+        })
+        .collect();
+    eprintln!(
+        "1-to-2, 100 × 60 mm at {cell} mm ({} × {} samples): {:.0} ms, loop points {pts:?}, \
+         warnings {:?}",
+        (100.0 / cell) as usize + 7,
+        (60.0 / cell) as usize + 7,
+        el.as_secs_f64() * 1e3,
+        r.warnings
+    );
+    let outer = ellipse(0.0, 0.0, 50.0, 30.0, 2000);
+    let mut hole = ellipse(0.0, 0.0, 30.0, 12.0, 1000);
+    hole.reverse();
+    let t = Instant::now();
+    let c = cap(&outer, &[&hole], cell).unwrap();
+    eprintln!(
+        "cap of a 100 × 60 mm annulus at {cell} mm: {:.0} ms, warnings {:?}",
+        t.elapsed().as_secs_f64() * 1e3,
+        c.warnings
+    );
+}

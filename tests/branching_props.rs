@@ -1,0 +1,367 @@
+//! Known-answer and property tests of the branching geometry: distance maps against brute
+//! force, intermediate contours of 1-to-1, 1-to-2, 2-to-2, 1-to-3 and random m-to-n problems,
+//! and caps. Each test prints the accuracy it measured (run with `--nocapture` to see it).
+
+use bskin::geometry::branching::{intermediate_contours, Intermediate, IntermediateContours};
+use bskin::geometry::capping::cap;
+use bskin::geometry::distance_map::{signed_distance, Grid};
+use bskin::geometry::polygon::{boundary_distance, contains, is_simple, signed_area, Point};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn ellipse(cx: f64, cy: f64, a: f64, b: f64, n: usize) -> Vec<Point> {
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * std::f64::consts::TAU / n as f64;
+            [cx + a * t.cos(), cy + b * t.sin()]
+        })
+        .collect()
+}
+
+/// A random star-shaped contour around `c` with radii in about `[0.6 r, 1.4 r]`.
+fn star(rng: &mut ChaCha8Rng, c: Point, r: f64, n: usize) -> Vec<Point> {
+    let terms: Vec<(f64, f64)> = (1..=4)
+        .map(|k| {
+            (
+                rng.random_range(0.0..0.25) / k as f64,
+                rng.random_range(0.0..std::f64::consts::TAU),
+            )
+        })
+        .collect();
+    (0..n)
+        .map(|i| {
+            let t = i as f64 * std::f64::consts::TAU / n as f64;
+            let s: f64 = terms
+                .iter()
+                .enumerate()
+                .map(|(k, (a, ph))| a * ((k + 1) as f64 * t + ph).cos())
+                .sum();
+            let rr = r * (1.0 + s);
+            [c[0] + rr * t.cos(), c[1] + rr * t.sin()]
+        })
+        .collect()
+}
+
+/// Signed distance to the union of disjoint filled contours, by brute force.
+fn union_sd(set: &[&[Point]], p: Point) -> f64 {
+    let d = set
+        .iter()
+        .map(|c| boundary_distance(c, p))
+        .fold(f64::INFINITY, f64::min);
+    if set.iter().any(|c| contains(c, p)) {
+        -d
+    } else {
+        d
+    }
+}
+
+fn loops(v: &[Intermediate]) -> Vec<&Vec<Point>> {
+    v.iter()
+        .filter_map(|i| match i {
+            Intermediate::Loop(l) => Some(l),
+            Intermediate::Point(_) => None,
+        })
+        .collect()
+}
+
+/// Worst gap between the two tilings of M: every vertex of a loop of one side that is not on
+/// a bisecting edge shared with its own side (farther than `cell` from the side's other
+/// loops) lies on ∂M, so it must lie on some loop of the other side. Both directions.
+fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
+    let (lo, up) = (loops(&r.lower), loops(&r.upper));
+    let one_way = |a: &[&Vec<Point>], b: &[&Vec<Point>]| -> f64 {
+        let mut worst: f64 = 0.0;
+        for (i, l) in a.iter().enumerate() {
+            for &p in l.iter() {
+                let own = a
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, o)| boundary_distance(o, p))
+                    .fold(f64::INFINITY, f64::min);
+                if own <= cell {
+                    continue;
+                }
+                let other = b
+                    .iter()
+                    .map(|o| boundary_distance(o, p))
+                    .fold(f64::INFINITY, f64::min);
+                worst = worst.max(other);
+            }
+        }
+        worst
+    };
+    one_way(&lo, &up).max(one_way(&up, &lo))
+}
+
+fn check_loops_valid(r: &IntermediateContours) {
+    for lp in loops(&r.lower).into_iter().chain(loops(&r.upper)) {
+        assert!(lp.len() >= 3);
+        assert!(signed_area(lp) > 0.0, "loop not counter-clockwise");
+        assert!(is_simple(lp), "loop not simple");
+    }
+}
+
+fn area_sum(v: &[Intermediate]) -> f64 {
+    loops(v).iter().map(|l| signed_area(l)).sum()
+}
+
+#[test]
+fn distance_map_matches_brute_force_on_random_stars() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let cell = 0.1;
+    let mut worst_cells: f64 = 0.0;
+    for case in 0..4 {
+        let a = star(&mut rng, [0.0, 0.0], 6.0, 60 + 20 * case);
+        let b = star(&mut rng, [14.0, 3.0], 4.0, 40);
+        let set: Vec<&[Point]> = vec![&a, &b];
+        let grid = Grid::covering([-10.0, -9.0, 21.0, 10.0], cell, 2, 1 << 22).unwrap();
+        let d = signed_distance(&grid, &set);
+        for r in 0..grid.height {
+            for c in 0..grid.width {
+                let p = grid.point(r, c);
+                let e = union_sd(&set, p);
+                let got = d[r * grid.width + c] as f64;
+                worst_cells = worst_cells.max((got - e).abs() / cell);
+            }
+        }
+    }
+    eprintln!("distance map vs brute force: max error {worst_cells:.2e} cell");
+    // f32 storage alone accounts for ~1e-6 mm at these magnitudes.
+    assert!(worst_cells < 1e-3, "max error {worst_cells} cell");
+}
+
+#[test]
+fn one_to_one_concentric_circles_give_the_mean_circle() {
+    let (r1, r2, cell) = (12.0, 7.0, 0.1);
+    let a = ellipse(2.0, 1.0, r1, r1, 600);
+    let b = ellipse(2.0, 1.0, r2, r2, 600);
+    let r = intermediate_contours(&[&a], &[&b], cell).unwrap();
+    check_loops_valid(&r);
+    let mut worst: f64 = 0.0;
+    for lp in loops(&r.lower).into_iter().chain(loops(&r.upper)) {
+        for p in lp {
+            worst = worst.max(((p[0] - 2.0).hypot(p[1] - 1.0) - 0.5 * (r1 + r2)).abs());
+        }
+    }
+    eprintln!("1-to-1 circles: radius error max {:.4} cell", worst / cell);
+    assert!(worst < cell / 2.0);
+}
+
+#[test]
+fn one_to_two_ellipse_over_two_discs() {
+    let cell = 0.1;
+    let lower = ellipse(0.0, 0.0, 30.0, 12.0, 720);
+    let d1 = ellipse(-15.0, 0.0, 10.0, 10.0, 360);
+    let d2 = ellipse(15.0, 0.0, 10.0, 10.0, 360);
+    let (a1, a2): (Vec<&[Point]>, Vec<&[Point]>) = (vec![&lower], vec![&d1, &d2]);
+    let r = intermediate_contours(&a1, &a2, cell).unwrap();
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    check_loops_valid(&r);
+    let lo = loops(&r.lower);
+    let up = loops(&r.upper);
+    assert_eq!((lo.len(), up.len()), (1, 2));
+
+    // The lower intermediate contour is ∂M: φ_M = ½(d_A1 + d_A2) vanishes on it.
+    let phi = |p: Point| 0.5 * (union_sd(&a1, p) + union_sd(&a2, p));
+    let worst_phi = lo[0].iter().map(|&p| phi(p).abs()).fold(0.0, f64::max);
+    // The upper loops' outer parts (away from the bisector x = 0) lie on the lower loop.
+    let mut worst_outer: f64 = 0.0;
+    // On the bisector x = 0 (compressed to a few points since it is straight): every point of
+    // one upper loop there is a point of the other, bit for bit.
+    let mut worst_bisector: f64 = 0.0;
+    let mut shared = 0;
+    for (k, lp) in up.iter().enumerate() {
+        let other = up[1 - k];
+        for &p in lp.iter() {
+            if p[0].abs() > cell {
+                worst_outer = worst_outer.max(boundary_distance(lo[0], p));
+            } else {
+                worst_bisector = worst_bisector.max(p[0].abs());
+                if phi(p) < -cell {
+                    assert!(other.contains(&p), "bisector point {p:?} not shared");
+                }
+                shared += other.contains(&p) as usize;
+            }
+        }
+    }
+    let union_gap = tiling_gap(&r, cell);
+    eprintln!(
+        "1-to-2: |φ_M| on lower loop ≤ {:.4} cell; upper outer parts to lower loop ≤ {:.4} cell; \
+         bisector |x| ≤ {:.2e} cell ({shared} shared points); tiling gap {:.4} cell",
+        worst_phi / cell,
+        worst_outer / cell,
+        worst_bisector / cell,
+        union_gap / cell
+    );
+    assert!(shared >= 2);
+    assert!(worst_phi < 0.3 * cell);
+    assert!(worst_outer < 0.3 * cell);
+    assert!(worst_bisector < 0.5 * cell);
+    assert!(union_gap < 0.5 * cell);
+    let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
+    assert!((al - au).abs() < 0.002 * al, "areas {al} vs {au}");
+}
+
+#[test]
+fn two_to_two_and_one_to_three_tile_the_same_mid_section() {
+    let cell = 0.1;
+    // 2-to-2: two discs below, two shifted ellipses above, crossing over.
+    let l1 = ellipse(-8.0, 0.0, 7.0, 7.0, 300);
+    let l2 = ellipse(8.0, 0.0, 7.0, 7.0, 300);
+    let u1 = ellipse(0.0, 6.0, 12.0, 5.0, 300);
+    let u2 = ellipse(0.0, -7.0, 12.0, 4.0, 300);
+    // 1-to-3: a wide ellipse over three discs.
+    let w = ellipse(0.0, 0.0, 26.0, 9.0, 600);
+    let t: Vec<Vec<Point>> = [-17.0, 0.0, 17.0]
+        .iter()
+        .map(|&x| ellipse(x, 0.0, 7.0, 7.0, 300))
+        .collect();
+    type Section<'a> = Vec<&'a [Point]>;
+    let cases: Vec<(&str, Section, Section)> = vec![
+        ("2-to-2", vec![&l1, &l2], vec![&u1, &u2]),
+        ("1-to-3", vec![&w], vec![&t[0], &t[1], &t[2]]),
+        ("3-to-1", vec![&t[0], &t[1], &t[2]], vec![&w]),
+    ];
+    for (name, a1, a2) in cases {
+        let r = intermediate_contours(&a1, &a2, cell).unwrap();
+        check_loops_valid(&r);
+        assert_eq!(loops(&r.lower).len(), a1.len(), "{name}: {:?}", r.warnings);
+        assert_eq!(loops(&r.upper).len(), a2.len(), "{name}: {:?}", r.warnings);
+        let gap = tiling_gap(&r, cell);
+        let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
+        eprintln!(
+            "{name}: tiling gap {:.4} cell, areas {al:.3} / {au:.3} mm²",
+            gap / cell
+        );
+        assert!(gap < 0.5 * cell, "{name}: gap {gap}");
+        assert!((al - au).abs() < 0.003 * al, "{name}: areas {al} vs {au}");
+    }
+}
+
+#[test]
+fn unconnected_contour_degenerates_to_a_point_with_a_warning() {
+    let cell = 0.1;
+    let big = ellipse(0.0, 0.0, 10.0, 10.0, 300);
+    let far = ellipse(30.0, 0.0, 3.0, 3.0, 100);
+    let top = ellipse(0.0, 0.0, 8.0, 8.0, 300);
+    let r = intermediate_contours(&[&big, &far], &[&top], cell).unwrap();
+    check_loops_valid(&r);
+    assert!(matches!(r.lower[0], Intermediate::Loop(_)));
+    let Intermediate::Point(p) = r.lower[1] else {
+        panic!("expected a point: {:?}", r.lower[1])
+    };
+    // M is the disc of radius 9; the point of M nearest to the far contour is near (9, 0).
+    assert!(
+        (p[0] - 9.0).abs() < 2.0 * cell && p[1].abs() < 2.0 * cell,
+        "{p:?}"
+    );
+    assert!(r.warnings.iter().any(|w| w.contains("lower contour 1")));
+    // No overlap at all: everything closes at its own innermost point.
+    let r = intermediate_contours(&[&far], &[&top], cell).unwrap();
+    assert!(matches!(r.lower[0], Intermediate::Point(p) if (p[0] - 30.0).abs() < cell));
+    assert!(!r.warnings.is_empty());
+}
+
+#[test]
+fn caps_of_disc_annulus_and_two_holed_plate() {
+    let cell = 0.1;
+    let disc = ellipse(4.0, -3.0, 9.0, 9.0, 500);
+    let c = cap(&disc, &[], cell).unwrap();
+    let Intermediate::Point(p) = c.outer else {
+        panic!()
+    };
+    eprintln!(
+        "cap of a disc: centre error {:.2e} cell",
+        (p[0] - 4.0).hypot(p[1] + 3.0) / cell
+    );
+    assert!((p[0] - 4.0).hypot(p[1] + 3.0) < cell / 2.0);
+
+    let outer = ellipse(0.0, 0.0, 18.0, 18.0, 700);
+    let mut hole = ellipse(0.0, 0.0, 6.0, 6.0, 300);
+    hole.reverse();
+    let c = cap(&outer, &[&hole], cell).unwrap();
+    let mut worst: f64 = 0.0;
+    for lp in loops(&[c.outer.clone(), c.holes[0].clone()]) {
+        for p in lp {
+            worst = worst.max((p[0].hypot(p[1]) - 12.0).abs());
+        }
+    }
+    eprintln!(
+        "cap of an annulus: ridge radius error {:.4} cell",
+        worst / cell
+    );
+    assert!(worst < cell / 2.0);
+
+    // Two holes: the outer contour closes onto the loop around both hole zones; each hole
+    // onto its own zone; the three caps share the ridge chains.
+    let plate = ellipse(0.0, 0.0, 24.0, 14.0, 700);
+    let mut h1 = ellipse(-10.0, 0.0, 4.0, 4.0, 200);
+    let mut h2 = ellipse(10.0, 0.0, 4.0, 4.0, 200);
+    h1.reverse();
+    h2.reverse();
+    let c = cap(&plate, &[&h1, &h2], cell).unwrap();
+    let all: Vec<Intermediate> = std::iter::once(c.outer.clone())
+        .chain(c.holes.iter().cloned())
+        .collect();
+    let ls = loops(&all);
+    assert_eq!(ls.len(), 3, "{:?}", c.warnings);
+    for lp in &ls {
+        assert!(signed_area(lp) > 0.0 && is_simple(lp));
+    }
+    // The hole caps together cover the outer cap's region.
+    let (ao, ah) = (signed_area(ls[0]), signed_area(ls[1]) + signed_area(ls[2]));
+    assert!((ao - ah).abs() < 0.003 * ao, "areas {ao} vs {ah}");
+    // Every point of a hole cap surrounds its hole.
+    assert!(contains(ls[1], [-10.0, 0.0]) && contains(ls[2], [10.0, 0.0]));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 12,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// Random star-shaped m-to-n problems: loops are simple, counter-clockwise, inside the
+    /// footprint A1 ∪ A2 (plus one cell), and both sides tile M alike.
+    #[test]
+    fn random_m_to_n_problems(seed in any::<u64>(), m in 1usize..=2, n in 1usize..=3) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let cell = 0.15;
+        // Contours of one section along x, far enough apart not to touch (radius ≤ 1.4 r).
+        let lower: Vec<Vec<Point>> = (0..m)
+            .map(|i| star(&mut rng, [i as f64 * 18.0, 0.0], 6.0, 80))
+            .collect();
+        let span = (m as f64 - 1.0) * 18.0;
+        let upper: Vec<Vec<Point>> = (0..n)
+            .map(|k| {
+                let x = if n == 1 { span / 2.0 } else { k as f64 * span.max(12.0) / (n as f64 - 1.0) };
+                let y = rng.random_range(-2.0..2.0);
+                star(&mut rng, [x, y], if n > m { 4.0 } else { 6.0 }, 60)
+            })
+            .collect();
+        let a1: Vec<&[Point]> = lower.iter().map(|v| v.as_slice()).collect();
+        let a2: Vec<&[Point]> = upper.iter().map(|v| v.as_slice()).collect();
+        let r = intermediate_contours(&a1, &a2, cell).unwrap();
+        prop_assert_eq!(r.lower.len(), m);
+        prop_assert_eq!(r.upper.len(), n);
+        check_loops_valid(&r);
+        for lp in loops(&r.lower).into_iter().chain(loops(&r.upper)) {
+            for &p in lp.iter() {
+                let inside = a1.iter().chain(a2.iter()).any(|c| contains(c, p));
+                let near = a1.iter().chain(a2.iter())
+                    .map(|c| boundary_distance(c, p)).fold(f64::INFINITY, f64::min);
+                prop_assert!(inside || near <= cell, "point {:?} outside the footprint", p);
+            }
+        }
+        if r.warnings.is_empty() {
+            let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
+            prop_assert!((al - au).abs() < 0.01 * al.max(1.0), "areas {} vs {}", al, au);
+            prop_assert!(tiling_gap(&r, cell) < 0.5 * cell);
+        }
+        // Deterministic: a second run is identical.
+        prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);
+    }
+}
