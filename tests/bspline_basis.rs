@@ -4,7 +4,7 @@
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
-use bskin::bspline::basis::{cox_de_boor, ders};
+use bskin::bspline::basis::{cox_de_boor, ders, values, values_d1};
 use bskin::bspline::{BsplineError, ClampedKnotVector, ClosedCurve, PeriodicKnotVector};
 use helpers::dist;
 use proptest::prelude::*;
@@ -81,6 +81,26 @@ proptest! {
         }
         let p = c.eval(t);
         prop_assert!(dist(&p, &s) < 1e-10, "{p:?} vs {s:?}");
+    }
+
+    /// The specialised value/first-derivative routines agree with the general A2.3 one.
+    #[test]
+    fn specialised_basis_matches_general(n1 in 4usize..12, seed in 0u64..10_000, t in 0.0f64..1.0) {
+        let c = random_curve(n1, seed);
+        let t = t * n1 as f64;
+        let k = c.knots().span(t) + 3;
+        let e = c.knots().extended();
+        let g = ders(e, k, t);
+        let v = values(e, k, t);
+        let (v1, d1) = values_d1(e, k, t);
+        for a in 0..4 {
+            prop_assert!((g[0][a] - v[a]).abs() < 1e-14 && (g[0][a] - v1[a]).abs() < 1e-14);
+            prop_assert!((g[1][a] - d1[a]).abs() < 1e-12);
+        }
+        prop_assert!((v.iter().sum::<f64>() - 1.0).abs() < 1e-14);
+        let (p, d) = c.eval_d1(t);
+        let (p2, dd, _) = c.derivs(t);
+        prop_assert!(dist(&p, &p2) < 1e-12 && dist(&d, &dd) < 1e-10);
     }
 
     /// First and second derivatives against central differences.

@@ -86,6 +86,40 @@ pub fn values(u: &[f64], k: usize, t: f64) -> [f64; 4] {
     n
 }
 
+/// Values and first derivatives of the four non-zero cubic basis functions at `t` in span
+/// `k` (cheaper than [`ders`]): N′_{i,4} = 3 (N_{i,3}/(u_{i+3} − u_i) − N_{i+1,3}/(u_{i+4} − u_{i+1})).
+pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
+    let mut n = [0.0f64; 4];
+    let mut left = [0.0f64; 4];
+    let mut right = [0.0f64; 4];
+    n[0] = 1.0;
+    let mut quad = [0.0f64; 3];
+    for j in 1..=3 {
+        if j == 3 {
+            quad.copy_from_slice(&n[..3]);
+        }
+        left[j] = t - u[k + 1 - j];
+        right[j] = u[k + j] - t;
+        let mut saved = 0.0;
+        for r in 0..j {
+            let temp = n[r] / (right[r + 1] + left[j - r]);
+            n[r] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        n[j] = saved;
+    }
+    // quad[b] = N_{k-2+b, 3}(t); q(a) = N_{k-3+a, 3}, zero outside.
+    let q = |a: usize| if a == 0 || a == 4 { 0.0 } else { quad[a - 1] };
+    let mut d = [0.0f64; 4];
+    for (a, da) in d.iter_mut().enumerate() {
+        let i = k + a - 3;
+        let t1 = if a > 0 { q(a) / (u[i + 3] - u[i]) } else { 0.0 };
+        let t2 = if a < 3 { q(a + 1) / (u[i + 4] - u[i + 1]) } else { 0.0 };
+        *da = 3.0 * (t1 - t2);
+    }
+    (n, d)
+}
+
 /// de Boor's algorithm: the point Σ_a ctrl[a]·N_{k-3+a}(t) for t in span `k`, where `ctrl`
 /// are the four control points of that span.
 pub fn de_boor<const D: usize>(u: &[f64], k: usize, t: f64, ctrl: [[f64; D]; 4]) -> [f64; D] {

@@ -95,6 +95,29 @@ impl<const D: usize> ClosedCurve<D> {
         (out[0], out[1], out[2])
     }
 
+    /// (C(t), C'(t)), cheaper than [`Self::derivs`].
+    pub fn eval_d1(&self, t: f64) -> ([f64; D], [f64; D]) {
+        let (k, t, c) = self.local(t);
+        let (b0, b1) = basis::values_d1(self.knots.extended(), k, t);
+        let mut p = [0.0; D];
+        let mut d = [0.0; D];
+        for a in 0..4 {
+            for x in 0..D {
+                p[x] += b0[a] * c[a][x];
+                d[x] += b1[a] * c[a][x];
+            }
+        }
+        (p, d)
+    }
+
+    /// Bounding boxes of each span's four control points (they hold the span's piece).
+    pub fn span_boxes(&self) -> Vec<([f64; D], [f64; D])> {
+        let n1 = self.control.len();
+        (0..n1)
+            .map(|s| bbox((0..4).map(|a| &self.control[(s + a) % n1])))
+            .collect()
+    }
+
     /// Local closest point from the seed `t0`: Newton on g(t) = (C−P)·C′ with backtracking
     /// on |C−P|, t wrapping. Returns (distance, t); never worse than the seed.
     pub fn project_from(&self, p: &[f64; D], t0: f64) -> (f64, f64) {
@@ -159,13 +182,35 @@ impl<const D: usize> ClosedCurve<D> {
         self.refine_global(p, best)
     }
 
-    fn refine_global(&self, p: &[f64; D], mut best: (f64, f64)) -> (f64, f64) {
+    /// As [`Self::distance_to_hint`] with the span boxes precomputed ([`Self::span_boxes`]),
+    /// for many queries against one curve.
+    pub fn distance_with_boxes(
+        &self,
+        p: &[f64; D],
+        t_hint: f64,
+        boxes: &[([f64; D], [f64; D])],
+    ) -> (f64, f64) {
+        let best = self.project_from(p, t_hint);
+        self.refine_boxes(p, best, boxes)
+    }
+
+    fn refine_global(&self, p: &[f64; D], best: (f64, f64)) -> (f64, f64) {
+        let boxes = self.span_boxes();
+        self.refine_boxes(p, best, &boxes)
+    }
+
+    /// Global refinement of a local result `best` = (distance, t): every span whose box is
+    /// nearer than `best` is sampled and Newton-refined.
+    pub(crate) fn refine_boxes(
+        &self,
+        p: &[f64; D],
+        mut best: (f64, f64),
+        boxes: &[([f64; D], [f64; D])],
+    ) -> (f64, f64) {
         let dom = self.knots.domain();
-        let n1 = self.control.len();
-        for s in 0..n1 {
-            let (lo, hi) = bbox((0..4).map(|a| &self.control[(s + a) % n1]));
+        for (s, (lo, hi)) in boxes.iter().enumerate() {
             // Relative slack so that rounding never hides a nearer span.
-            if box_dist(p, &lo, &hi) >= best.0 * (1.0 - 1e-12) {
+            if box_dist(p, lo, hi) >= best.0 * (1.0 - 1e-12) {
                 continue;
             }
             let (a, b) = (dom[s], dom[s + 1]);

@@ -107,6 +107,9 @@ impl PeriodicKnotVector {
     /// `t` wrapped into [0, n+1).
     pub fn wrap(&self, t: f64) -> f64 {
         let p = self.period();
+        if (0.0..p).contains(&t) {
+            return t;
+        }
         let w = t.rem_euclid(p);
         // rem_euclid may return p itself for tiny negative t.
         if w >= p {
@@ -120,6 +123,20 @@ impl PeriodicKnotVector {
     pub fn span(&self, t: f64) -> usize {
         let d = self.domain();
         let n = d.len() - 2;
+        // Domain knots average one unit apart: guess ⌊t⌋ and walk a few steps; fall back to
+        // binary search for very uneven knots.
+        if t.is_finite() && t >= 0.0 {
+            let mut s = (t as usize).min(n);
+            for _ in 0..8 {
+                if d[s] > t {
+                    s -= 1;
+                } else if s < n && d[s + 1] <= t {
+                    s += 1;
+                } else {
+                    return s;
+                }
+            }
+        }
         let s = d.partition_point(|&x| x <= t);
         s.saturating_sub(1).min(n)
     }
