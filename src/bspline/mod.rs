@@ -1,11 +1,118 @@
 //! The B-spline kernel (paper §2.1, §2.4–2.6; METHOD.md §5–8): closed cubic curves, fitting
 //! within a tolerance, common knot vectors, skinning. Pure: no I/O, no channels, no DICOM.
+//!
+//! In: contours as slices of points `[f64; D]` (patient mm; D = 3 in the pipeline, 2 in many
+//! tests). Out: closed cubic B-spline curves ([`ClosedCurve`]) on per-contour or common
+//! ([`PeriodicKnotVector`]) knot vectors, and bicubic surfaces closed in u, open in v
+//! ([`SkinnedSurface`]). Every constructor validates its input and returns a
+//! [`BsplineError`] that states the numbers; no input makes the kernel panic or return NaN.
+//! The kernel is single-threaded and deterministic; callers parallelise across regions/points.
+//!
+//! Layout, one file per concept:
+//! - [`knot_vector`]: periodic (u) and clamped (v) cubic knot vectors.
+//! - [`basis`]: cubic B-spline basis functions, derivatives, de Boor.
+//! - [`closed_curve`]: closed cubic curves: evaluation, derivatives, true point distance.
+//! - [`cyclic_solver`]: O(n) solver for the cyclic banded normal equations.
+//! - [`fit`]: one contour on its own knot vector, and Algorithm 1 (fewest control points).
+//! - [`common_knots`]: Algorithm 2 (all contours of a region on one knot vector).
+//! - [`skinning`] / [`surface`]: interpolation across the curves, and the resulting surface.
+
+pub mod basis;
+pub mod closed_curve;
+pub mod common_knots;
+pub mod cyclic_solver;
+pub mod fit;
+pub mod knot_vector;
+pub mod skinning;
+pub mod surface;
+
+pub use closed_curve::ClosedCurve;
+pub use common_knots::{fit_common, CommonFit};
+pub use cyclic_solver::CyclicBandedMatrix;
+pub use fit::{chord_params, clean_contour, fit_contour, fit_fewest, ContourFit, FitOptions};
+pub use knot_vector::{ClampedKnotVector, PeriodicKnotVector};
+pub use skinning::skin;
+pub use surface::SkinnedSurface;
 
 /// Errors of the B-spline kernel; each states the numbers involved.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BsplineError {
+    /// A knot vector failed validation (count, monotonicity, range, finiteness).
     #[error("invalid knot vector: {0}")]
     InvalidKnots(String),
+    /// Input geometry that cannot define a curve or surface (too few points, zero length,
+    /// collinear points, coincident curves, a cap point in the middle of a region).
     #[error("degenerate input: {0}")]
     Degenerate(String),
+    /// A coordinate or parameter is NaN or infinite.
+    #[error("non-finite input: {0}")]
+    NonFinite(String),
+    /// Arguments inconsistent with each other (control-point counts, mismatched knot vectors).
+    #[error("invalid argument: {0}")]
+    InvalidArgument(String),
+    /// A linear system was numerically singular (e.g. a knot span holds no parameter).
+    #[error("singular system: {0}")]
+    Singular(String),
+}
+
+/// Euclidean helpers shared by the kernel's files.
+pub(crate) mod vecops {
+    #[inline]
+    pub fn sub<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
+        std::array::from_fn(|i| a[i] - b[i])
+    }
+    #[inline]
+    pub fn add<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
+        std::array::from_fn(|i| a[i] + b[i])
+    }
+    #[inline]
+    pub fn scale<const D: usize>(a: &[f64; D], s: f64) -> [f64; D] {
+        std::array::from_fn(|i| a[i] * s)
+    }
+    #[inline]
+    pub fn dot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+        (0..D).map(|i| a[i] * b[i]).sum()
+    }
+    #[inline]
+    pub fn norm<const D: usize>(a: &[f64; D]) -> f64 {
+        dot(a, a).sqrt()
+    }
+    #[inline]
+    pub fn dist<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+        norm(&sub(a, b))
+    }
+    #[inline]
+    pub fn is_finite<const D: usize>(a: &[f64; D]) -> bool {
+        a.iter().all(|x| x.is_finite())
+    }
+    /// Distance from `p` to the axis-aligned box `[lo, hi]` (0 inside): a lower bound for the
+    /// distance to any curve/surface piece inside the convex hull of its control points.
+    #[inline]
+    pub fn box_dist<const D: usize>(p: &[f64; D], lo: &[f64; D], hi: &[f64; D]) -> f64 {
+        let mut s = 0.0;
+        for i in 0..D {
+            let d = if p[i] < lo[i] {
+                lo[i] - p[i]
+            } else if p[i] > hi[i] {
+                p[i] - hi[i]
+            } else {
+                0.0
+            };
+            s += d * d;
+        }
+        s.sqrt()
+    }
+    pub fn bbox<'a, const D: usize>(
+        pts: impl Iterator<Item = &'a [f64; D]>,
+    ) -> ([f64; D], [f64; D]) {
+        let mut lo = [f64::INFINITY; D];
+        let mut hi = [f64::NEG_INFINITY; D];
+        for p in pts {
+            for i in 0..D {
+                lo[i] = lo[i].min(p[i]);
+                hi[i] = hi[i].max(p[i]);
+            }
+        }
+        (lo, hi)
+    }
 }

@@ -1,0 +1,272 @@
+//! Algorithm 2 (paper §2.5, METHOD §7): all contours of one single-branching region on one
+//! common knot vector, with as few control points as the binary search finds.
+//!
+//! In: the region's contours in order (bottom to top), each a list of points; the first and/or
+//! last may be a single point (a cap; a contour whose points all coincide counts as one).
+//! Out: a [`CommonFit`]: the common [`PeriodicKnotVector`], one curve per input contour on it
+//! (a cap's curve has every control point equal to the cap point), each curve's max true
+//! distance to its contour, and `met`.
+//!
+//! Steps: CLIST starts with the contours sorted by point count, largest first (the paper
+//! leaves the initial order open; more points is our guess at "more complex"). N_min =
+//! Algorithm 1 on CLIST's first, N_max = most points of any contour; binary search on N with
+//! the invariant "N_upp feasible, its curves stored" (see [`super::fit`] for why not the
+//! paper's T_pre). For a trial N, each contour gets its own domain knots (Eq. 4 / Eq. 5, or
+//! resampling on its interpolant D(t) when it has fewer than N points — those resampled points
+//! then also serve as fitting data, since N control points cannot be fitted to fewer points);
+//! the common domain knots are their average (caps excluded). Gap filling (Fig. 5): a span of
+//! the common knots holding no parameter of a contour gets two extra points of that contour's
+//! polygon at 1/3 and 2/3 of the span (not at the midpoint: one point per span exactly at the
+//! midpoints makes the periodic cubic collocation matrix singular for an even count). Extra
+//! points are fitting data only; errors are measured on the contour's own points. The first
+//! failing contour moves to the front of CLIST.
+//!
+//! When even N_max fails (e.g. the averaged knots suit one contour badly and gap filling turns
+//! its interpolation into approximation), the N_max fit of every contour is returned with
+//! `met = false` and the per-curve errors, rather than an error: the caller decides.
+
+use super::closed_curve::ClosedCurve;
+use super::fit::{
+    chord_params, clean_contour, fewest_prepared, finalize, fit_on_knots, interpolate,
+    knots_approximation, knots_interpolation, polygon_at, prepare_contour, resample,
+    split_combined, ContourFit, FitOptions,
+};
+use super::knot_vector::PeriodicKnotVector;
+use super::BsplineError;
+
+/// Curves of one region on a common knot vector.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommonFit<const D: usize> {
+    pub knots: PeriodicKnotVector,
+    /// One per input contour, in input order.
+    pub curves: Vec<ClosedCurve<D>>,
+    /// Per input contour: max true distance of its (cleaned) points to its curve; 0 for caps.
+    pub max_errors: Vec<f64>,
+    /// Every contour within tolerance.
+    pub met: bool,
+    /// Per input contour: the cleaned points, their closest-point parameters and distances
+    /// (a cap has its one point, parameter 0, distance 0).
+    pub points: Vec<Vec<[f64; D]>>,
+    pub params: Vec<Vec<f64>>,
+    pub errors: Vec<Vec<f64>>,
+    /// CLIST at the end (most recently failing contours first).
+    pub clist: Vec<usize>,
+}
+
+enum Item<const D: usize> {
+    Cap([f64; D]),
+    Contour {
+        pts: Vec<[f64; D]>,
+        interp: Option<(ClosedCurve<D>, Vec<f64>)>,
+    },
+}
+
+enum Trial<const D: usize> {
+    Ok(PeriodicKnotVector, Vec<Option<ContourFit<D>>>),
+    Failed(usize),
+}
+
+/// Algorithm 2; see the module doc.
+pub fn fit_common<const D: usize>(
+    contours: &[Vec<[f64; D]>],
+    opts: &FitOptions,
+) -> Result<CommonFit<D>, BsplineError> {
+    opts.validate()?;
+    let count = contours.len();
+    if count == 0 {
+        return Err(BsplineError::Degenerate("region has 0 contours".into()));
+    }
+    let ctx = |i: usize, e: BsplineError| -> BsplineError {
+        let msg = format!("contour {i} of {count}: {e}");
+        match e {
+            BsplineError::NonFinite(_) => BsplineError::NonFinite(msg),
+            _ => BsplineError::Degenerate(msg),
+        }
+    };
+    let mut items = Vec::with_capacity(count);
+    for (i, c) in contours.iter().enumerate() {
+        let cleaned = clean_contour(c).map_err(|e| ctx(i, e))?;
+        if cleaned.len() == 1 {
+            if i != 0 && i + 1 != count {
+                return Err(BsplineError::Degenerate(format!(
+                    "contour {i} of {count} is a single point; caps are only allowed at either end"
+                )));
+            }
+            items.push(Item::Cap(cleaned[0]));
+        } else {
+            let pts = prepare_contour(&cleaned).map_err(|e| ctx(i, e))?;
+            items.push(Item::Contour { pts, interp: None });
+        }
+    }
+    let sizes: Vec<(usize, usize)> = items
+        .iter()
+        .enumerate()
+        .filter_map(|(i, it)| match it {
+            Item::Contour { pts, .. } => Some((i, pts.len())),
+            Item::Cap(_) => None,
+        })
+        .collect();
+    if sizes.is_empty() {
+        return Err(BsplineError::Degenerate(format!(
+            "all {count} contours are single points"
+        )));
+    }
+    let mut clist: Vec<usize> = sizes.iter().map(|s| s.0).collect();
+    // Stable sort: ties keep input order.
+    clist.sort_by_key(|&i| std::cmp::Reverse(sizes.iter().find(|s| s.0 == i).map_or(0, |s| s.1)));
+    let n_max = sizes.iter().map(|s| s.1).max().unwrap_or(4);
+    let n_min = match &items[clist[0]] {
+        Item::Contour { pts, .. } => fewest_prepared(pts, opts)?.n_control(),
+        Item::Cap(_) => 4,
+    };
+    let mut low = n_min - 1;
+    let mut upp = n_max;
+    let mut now = n_min;
+    let mut best: Option<(PeriodicKnotVector, Vec<Option<ContourFit<D>>>)> = None;
+    loop {
+        match trial(&mut items, now, &clist, opts, true)? {
+            Trial::Ok(k, fits) => {
+                upp = now;
+                best = Some((k, fits));
+            }
+            Trial::Failed(c) => {
+                if let Some(pos) = clist.iter().position(|&x| x == c) {
+                    let v = clist.remove(pos);
+                    clist.insert(0, v);
+                }
+                low = now;
+            }
+        }
+        if upp <= low + 1 {
+            break;
+        }
+        now = (low + upp) / 2;
+    }
+    let (knots, fits) = match best {
+        Some(b) => b,
+        None => match trial(&mut items, n_max, &clist, opts, false)? {
+            Trial::Ok(k, f) => (k, f),
+            Trial::Failed(c) => {
+                return Err(BsplineError::Singular(format!(
+                    "contour {c} of {count} cannot be fitted with {n_max} control points"
+                )))
+            }
+        },
+    };
+    let mut out = CommonFit {
+        knots: knots.clone(),
+        curves: Vec::with_capacity(count),
+        max_errors: Vec::with_capacity(count),
+        met: true,
+        points: Vec::with_capacity(count),
+        params: Vec::with_capacity(count),
+        errors: Vec::with_capacity(count),
+        clist,
+    };
+    for (item, fit) in items.iter().zip(fits) {
+        match (item, fit) {
+            (Item::Cap(p), _) => {
+                out.curves.push(ClosedCurve::point(knots.clone(), *p)?);
+                out.max_errors.push(0.0);
+                out.points.push(vec![*p]);
+                out.params.push(vec![0.0]);
+                out.errors.push(vec![0.0]);
+            }
+            (Item::Contour { .. }, Some(f)) => {
+                let f = finalize(f, opts.tolerance);
+                out.met &= f.met;
+                out.max_errors.push(f.max_error);
+                out.curves.push(f.curve);
+                out.points.push(f.points);
+                out.params.push(f.params);
+                out.errors.push(f.errors);
+            }
+            (Item::Contour { .. }, None) => {
+                return Err(BsplineError::Singular("a contour was not fitted".into()))
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One trial of Algorithm 2 with `n1` control points: common knots, gap filling, fits in
+/// CLIST order. With `early_exit`, stops at the first contour missing the tolerance (or whose
+/// system is singular); without it, fits all and fails only on a singular system.
+fn trial<const D: usize>(
+    items: &mut [Item<D>],
+    n1: usize,
+    clist: &[usize],
+    opts: &FitOptions,
+    early_exit: bool,
+) -> Result<Trial<D>, BsplineError> {
+    // Per contour: fitting data (combined), which entries are original, params, own knots.
+    let mut data: Vec<Option<(Vec<[f64; D]>, Vec<bool>, Vec<f64>)>> =
+        Vec::with_capacity(items.len());
+    let mut sum = vec![0.0f64; n1 + 1];
+    let mut used = 0usize;
+    for item in items.iter_mut() {
+        match item {
+            Item::Cap(_) => data.push(None),
+            Item::Contour { pts, interp } => {
+                let (combined, orig) = if pts.len() >= n1 {
+                    (pts.clone(), vec![true; pts.len()])
+                } else {
+                    if interp.is_none() {
+                        *interp = Some(interpolate(pts)?);
+                    }
+                    match interp {
+                        Some(i) => resample(pts, i, n1),
+                        None => return Err(BsplineError::Singular("no interpolant".into())),
+                    }
+                };
+                let u = chord_params(&combined, n1);
+                let own = if combined.len() == n1 {
+                    knots_interpolation(&u, n1)?
+                } else {
+                    knots_approximation(&u, n1)?
+                };
+                for (s, k) in sum.iter_mut().zip(own.domain()) {
+                    *s += k;
+                }
+                used += 1;
+                data.push(Some((combined, orig, u)));
+            }
+        }
+    }
+    let domain: Vec<f64> = sum.iter().map(|s| s / used as f64).collect();
+    let knots = PeriodicKnotVector::try_new(&domain)?;
+    let dom = knots.domain();
+    let mut fits: Vec<Option<ContourFit<D>>> = (0..items.len()).map(|_| None).collect();
+    for &i in clist {
+        let (pts, (combined, orig, u)) = match (&items[i], &data[i]) {
+            (Item::Contour { pts, .. }, Some(d)) => (pts, d),
+            _ => continue,
+        };
+        let (po, mut ex) = split_combined(combined, orig, u);
+        // Gap filling (Fig. 5).
+        let mut j = 0usize;
+        for s in 0..n1 {
+            let (a, b) = (dom[s], dom[s + 1]);
+            while j < u.len() && u[j] < a {
+                j += 1;
+            }
+            if !(j < u.len() && u[j] < b) {
+                for f in [1.0 / 3.0, 2.0 / 3.0] {
+                    let t = a + (b - a) * f;
+                    ex.push((polygon_at(combined, u, n1 as f64, t), t));
+                }
+            }
+        }
+        match fit_on_knots(pts, &po, &ex, &knots, opts) {
+            Ok(f) => {
+                if early_exit && !f.met {
+                    return Ok(Trial::Failed(i));
+                }
+                fits[i] = Some(f);
+            }
+            Err(BsplineError::Singular(_)) if early_exit => return Ok(Trial::Failed(i)),
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(Trial::Ok(knots, fits))
+}

@@ -1,0 +1,240 @@
+//! Skinning (paper §2.6, METHOD §8): r+1 closed curves on one knot vector → one surface.
+//!
+//! In: curves C_0..C_r (r ≥ 1) on the same [`PeriodicKnotVector`] (n+1 control points each);
+//! C_0 and/or C_r may be a point (all control points equal: a cap). Out: a [`SkinnedSurface`]
+//! with (n+1)×(r+3) control points that reproduces C_k exactly at v = v̄_k.
+//!
+//! - v̄: centripetal, averaged over the control-point columns i (columns where all curves
+//!   share the control point carry no information and are skipped):
+//!   v̄_k = v̄_{k−1} + (r / #columns) Σ_i √|B_{i,k} − B_{i,k−1}| / Σ_j √|B_{i,j} − B_{i,j−1}|.
+//!   Two consecutive identical curves give v̄_k = v̄_{k−1}: an error.
+//! - V = {0,0,0,0, v_1..v_{r−1}, r,r,r,r}, v_{j+1} = (v̄_j + v̄_{j+1} + v̄_{j+2}) / 3.
+//! - Column i: V_{i,0} = B_{i,0}, V_{i,1} − V_{i,0} = (v_1/3) T_{i,0}, interior rows
+//!   Σ_j V_{i,j} M_j(v̄_k) = B_{i,k} (k = 1..r−1), V_{i,r+1} − V_{i,r+2} = −((r − v_{r−1})/3)
+//!   T_{i,r}, V_{i,r+2} = B_{i,r}. One (r+3)² matrix for every column: LU once.
+//! - End tangents T: derivative of the parabola through the first (last) three points
+//!   (B_{i,0}, B_{i,1}, B_{i,2} at v̄_0..v̄_2: Bessel's end condition); the chord for r = 1.
+//! - Caps. At a cap every column starts at the cap point Q, so S(·, 0) ≡ Q and the surface has
+//!   a tangent plane at Q only if all S_v(u, 0) = Σ_i N_i(u) T_{i,0} lie in one plane. The
+//!   per-column parabola tangents do not (a cone point / crease). We project each T_{i,0} onto
+//!   the plane through Q orthogonal to the neighbouring curve's normal (Newell normal of C_1's
+//!   control polygon: for a contour in a slice plane it is the slice normal, and the cap sits
+//!   on the slice axis), which gives a smooth dome with its tangent plane parallel to the
+//!   slices. If a projected tangent points back towards the axis (parabola overshoot), the
+//!   projected chord (B_{i,1} − Q)/v̄_1 is used instead. If the neighbour has no normal
+//!   (degenerate polygon), the tangents are left unprojected.
+
+use nalgebra::{DMatrix, Dyn, LU};
+
+use super::basis;
+use super::closed_curve::ClosedCurve;
+use super::knot_vector::ClampedKnotVector;
+use super::surface::SkinnedSurface;
+use super::vecops::{add, dist, dot, norm, scale, sub};
+use super::BsplineError;
+
+type P3 = [f64; 3];
+
+/// Skins the curves; see the module doc.
+pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
+    if curves.len() < 2 {
+        return Err(BsplineError::InvalidArgument(format!(
+            "skinning needs at least 2 curves, got {}",
+            curves.len()
+        )));
+    }
+    let r = curves.len() - 1;
+    let uk = curves[0].knots().clone();
+    let n1 = uk.n_control();
+    for (k, c) in curves.iter().enumerate().skip(1) {
+        if c.knots().n_control() != n1 {
+            return Err(BsplineError::InvalidArgument(format!(
+                "curve {k} has {} control points, curve 0 has {n1}",
+                c.knots().n_control()
+            )));
+        }
+        let tol = 1e-9 * n1 as f64;
+        if let Some(j) = (0..=n1).find(|&j| (c.knots().domain()[j] - uk.domain()[j]).abs() > tol) {
+            return Err(BsplineError::InvalidArgument(format!(
+                "curve {k} domain knot ξ_{j} = {} differs from curve 0's {}",
+                c.knots().domain()[j],
+                uk.domain()[j]
+            )));
+        }
+    }
+    for (k, c) in curves.iter().enumerate() {
+        if c.is_point() && k != 0 && k != r {
+            return Err(BsplineError::Degenerate(format!(
+                "curve {k} of {} is a point; caps are only allowed at either end",
+                r + 1
+            )));
+        }
+    }
+    let b = |i: usize, k: usize| curves[k].control()[i];
+
+    // v̄ (centripetal, averaged over columns).
+    let mut inc = vec![0.0f64; r + 1];
+    let mut used = 0usize;
+    for i in 0..n1 {
+        let lens: Vec<f64> = (1..=r)
+            .map(|k| dist(&b(i, k), &b(i, k - 1)).sqrt())
+            .collect();
+        let total: f64 = lens.iter().sum();
+        if total > 0.0 {
+            used += 1;
+            for k in 1..=r {
+                inc[k] += lens[k - 1] / total;
+            }
+        }
+    }
+    if used == 0 {
+        return Err(BsplineError::Degenerate(format!(
+            "all {} curves coincide",
+            r + 1
+        )));
+    }
+    let mut v_bar = vec![0.0f64; r + 1];
+    for k in 1..=r {
+        let d = inc[k] * r as f64 / used as f64;
+        if !(d > 1e-12 * r as f64) {
+            return Err(BsplineError::Degenerate(format!(
+                "curves {} and {k} coincide (v̄ step {d:.3e})",
+                k - 1
+            )));
+        }
+        v_bar[k] = v_bar[k - 1] + d;
+    }
+    v_bar[r] = r as f64;
+    let rf = r as f64;
+    let interior: Vec<f64> = (0..r.saturating_sub(1))
+        .map(|j| (v_bar[j] + v_bar[j + 1] + v_bar[j + 2]) / 3.0)
+        .collect();
+    let vk = ClampedKnotVector::try_from_interior(0.0, rf, &interior)?;
+    let knots = vk.knots();
+    let v1 = knots[4];
+    let vr1 = knots[knots.len() - 5];
+
+    // End tangents per column.
+    let tangent_start = |i: usize| -> P3 {
+        if r == 1 {
+            return scale(&sub(&b(i, 1), &b(i, 0)), 1.0 / v_bar[1]);
+        }
+        let (h1, h2) = (v_bar[1] - v_bar[0], v_bar[2] - v_bar[1]);
+        let d1 = scale(&sub(&b(i, 1), &b(i, 0)), 1.0 / h1);
+        let d2 = scale(&sub(&b(i, 2), &b(i, 1)), 1.0 / h2);
+        scale(
+            &sub(&scale(&d1, 2.0 * h1 + h2), &scale(&d2, h1)),
+            1.0 / (h1 + h2),
+        )
+    };
+    let tangent_end = |i: usize| -> P3 {
+        if r == 1 {
+            return scale(&sub(&b(i, 1), &b(i, 0)), 1.0 / v_bar[1]);
+        }
+        let (h1, h2) = (v_bar[r - 1] - v_bar[r - 2], v_bar[r] - v_bar[r - 1]);
+        let d1 = scale(&sub(&b(i, r - 1), &b(i, r - 2)), 1.0 / h1);
+        let d2 = scale(&sub(&b(i, r), &b(i, r - 1)), 1.0 / h2);
+        scale(
+            &sub(&scale(&d2, 2.0 * h2 + h1), &scale(&d1, h2)),
+            1.0 / (h1 + h2),
+        )
+    };
+    let mut t0: Vec<P3> = (0..n1).map(tangent_start).collect();
+    let mut tr: Vec<P3> = (0..n1).map(tangent_end).collect();
+    if curves[0].is_point() {
+        cap_tangents(
+            &mut t0,
+            curves[0].control()[0],
+            curves[1].control(),
+            v_bar[1] - v_bar[0],
+            1.0,
+        );
+    }
+    if curves[r].is_point() {
+        // The end tangent follows increasing v, i.e. points from the neighbour to the cap.
+        cap_tangents(
+            &mut tr,
+            curves[r].control()[0],
+            curves[r - 1].control(),
+            v_bar[r] - v_bar[r - 1],
+            -1.0,
+        );
+    }
+
+    // Shared system.
+    let nv = r + 3;
+    let mut a = DMatrix::<f64>::zeros(nv, nv);
+    a[(0, 0)] = 1.0;
+    a[(1, 0)] = -1.0;
+    a[(1, 1)] = 1.0;
+    for k in 1..r {
+        let span = vk.span(v_bar[k]);
+        let m = basis::values(knots, span, v_bar[k]);
+        for (c, w) in m.iter().enumerate() {
+            a[(k + 1, span - 3 + c)] = *w;
+        }
+    }
+    a[(r + 1, r + 1)] = -1.0;
+    a[(r + 1, r + 2)] = 1.0;
+    a[(r + 2, r + 2)] = 1.0;
+    let mut rhs = DMatrix::<f64>::zeros(nv, 3 * n1);
+    for i in 0..n1 {
+        for x in 0..3 {
+            let col = 3 * i + x;
+            rhs[(0, col)] = b(i, 0)[x];
+            rhs[(1, col)] = v1 / 3.0 * t0[i][x];
+            for k in 1..r {
+                rhs[(k + 1, col)] = b(i, k)[x];
+            }
+            rhs[(r + 1, col)] = (rf - vr1) / 3.0 * tr[i][x];
+            rhs[(r + 2, col)] = b(i, r)[x];
+        }
+    }
+    let lu: LU<f64, Dyn, Dyn> = a.lu();
+    let sol = lu.solve(&rhs).ok_or_else(|| {
+        BsplineError::Singular(format!(
+            "v interpolation system ({nv}×{nv}) for v̄ = {v_bar:?}"
+        ))
+    })?;
+    let mut control = Vec::with_capacity(n1 * nv);
+    for i in 0..n1 {
+        for j in 0..nv {
+            control.push([sol[(j, 3 * i)], sol[(j, 3 * i + 1)], sol[(j, 3 * i + 2)]]);
+        }
+    }
+    SkinnedSurface::try_new(uk, vk, control, v_bar)
+}
+
+/// Projects cap tangents into the plane through the cap point `q` orthogonal to the
+/// neighbouring curve's normal (see the module doc). `h` is the v̄ step to the neighbour;
+/// `sign` is +1 at the start (tangents point from the cap outwards), −1 at the end.
+fn cap_tangents(t: &mut [P3], q: P3, neighbour: &[P3], h: f64, sign: f64) {
+    let n = neighbour.len();
+    let c = scale(
+        &neighbour.iter().fold([0.0; 3], |acc, p| add(&acc, p)),
+        1.0 / n as f64,
+    );
+    let mut normal = [0.0; 3];
+    for i in 0..n {
+        let (a, b) = (sub(&neighbour[i], &c), sub(&neighbour[(i + 1) % n], &c));
+        normal = add(
+            &normal,
+            &[
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ],
+        );
+    }
+    let len = norm(&normal);
+    if !(len > 0.0) {
+        return;
+    }
+    let nn = scale(&normal, 1.0 / len);
+    let proj = |v: &P3| sub(v, &scale(&nn, dot(v, &nn)));
+    for (i, ti) in t.iter_mut().enumerate() {
+        let p = proj(ti);
+        let chord = scale(&proj(&sub(&neighbour[i], &q)), sign / h);
+        *ti = if dot(&p, &chord) > 0.0 { p } else { chord };
+    }
+}

@@ -1,0 +1,95 @@
+//! Algorithm 2: every curve of a region on one knot vector within tolerance, caps, CLIST,
+//! the unmeetable case.
+
+#[path = "bspline_helpers.rs"]
+mod helpers;
+
+use bskin::bspline::{fit_common, BsplineError, FitOptions};
+use helpers::{circle, lift, star};
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    #[test]
+    fn all_curves_meet_tolerance_on_one_knot_vector(
+        sizes in prop::collection::vec(8usize..400, 2..6),
+        seed in 0u64..1_000_000,
+        tol in prop_oneof![Just(0.1), 0.03f64..0.3],
+    ) {
+        let contours: Vec<Vec<[f64; 3]>> = sizes
+            .iter()
+            .enumerate()
+            .map(|(k, &m)| lift(&star(m, 25.0 + k as f64, 0.02, seed + k as u64), 2.0 * k as f64))
+            .collect();
+        let f = fit_common(&contours, &FitOptions::new(tol)).unwrap();
+        prop_assert_eq!(f.curves.len(), contours.len());
+        for (k, c) in f.curves.iter().enumerate() {
+            prop_assert_eq!(c.knots(), &f.knots);
+            let d = f.points[k].iter().map(|p| c.distance_to(p).0).fold(0.0, f64::max);
+            prop_assert!((d - f.max_errors[k]).abs() < 1e-9);
+            if f.met {
+                prop_assert!(d <= tol * (1.0 + 1e-9), "contour {k}: {d} > {tol}");
+            }
+        }
+        prop_assert_eq!(f.met, f.max_errors.iter().all(|&e| e <= tol));
+        // With these mild inputs the tolerance is always reachable.
+        prop_assert!(f.met, "errors {:?}", f.max_errors);
+        prop_assert!(f.knots.n_control() <= *sizes.iter().max().unwrap());
+    }
+}
+
+/// Caps at both ends: their curves are all-equal control points and they do not change the
+/// knot vector (which is the one of the same region without caps).
+#[test]
+fn caps_at_both_ends() {
+    let body: Vec<Vec<[f64; 3]>> = (0..3).map(|k| lift(&star(120, 20.0, 0.0, 7 + k), 1.0 + k as f64)).collect();
+    let mut with_caps = vec![vec![[0.5, 0.2, 0.0]]];
+    with_caps.extend(body.iter().cloned());
+    // A zero-length contour (all points equal) counts as a cap.
+    with_caps.push(vec![[0.1, 0.0, 4.0]; 5]);
+    let o = FitOptions::new(0.05);
+    let a = fit_common(&with_caps, &o).unwrap();
+    let b = fit_common(&body, &o).unwrap();
+    assert!(a.met);
+    assert_eq!(a.knots, b.knots);
+    assert!(a.curves[0].control().iter().all(|c| *c == [0.5, 0.2, 0.0]));
+    assert!(a.curves[4].control().iter().all(|c| *c == [0.1, 0.0, 4.0]));
+    assert_eq!(a.max_errors[0], 0.0);
+    assert_eq!(a.max_errors[4], 0.0);
+}
+
+#[test]
+fn cap_in_the_middle_or_only_caps_is_an_error() {
+    let o = FitOptions::new(0.05);
+    let c = lift(&circle(40, 5.0), 0.0);
+    let e = fit_common(&[c.clone(), vec![[0.0, 0.0, 1.0]], c.clone()], &o).unwrap_err();
+    assert!(e.to_string().contains("contour 1 of 3 is a single point"), "{e}");
+    assert!(fit_common(&[vec![[0.0; 3]], vec![[1.0; 3]]], &o).is_err());
+    assert!(fit_common::<3>(&[], &o).is_err());
+    let mut bad = c.clone();
+    bad[3][0] = f64::INFINITY;
+    let e = fit_common(&[c.clone(), bad], &o).unwrap_err();
+    assert!(matches!(e, BsplineError::NonFinite(_)) && e.to_string().contains("contour 1 of 2"), "{e}");
+    let e = fit_common(&[c, vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]], &o).unwrap_err();
+    assert!(e.to_string().contains("contour 1 of 2"), "{e}");
+}
+
+/// A very noisy dense contour next to a coarse one: the common knot vector may not reach the
+/// tolerance; the result then says so (met = false) with honest per-curve errors instead of
+/// failing.
+#[test]
+fn unmeetable_tolerance_reports_instead_of_failing() {
+    let dense = lift(&star(800, 20.0, 0.5, 3), 0.0);
+    let coarse = lift(&star(12, 20.0, 0.0, 4), 1.0);
+    let tol = 1e-4;
+    let f = fit_common(&[coarse, dense], &FitOptions::new(tol)).unwrap();
+    eprintln!("n+1 = {}, met = {}, errors = {:?}", f.knots.n_control(), f.met, f.max_errors);
+    assert_eq!(f.met, f.max_errors.iter().all(|&e| e <= tol));
+    for (k, c) in f.curves.iter().enumerate() {
+        let d = f.points[k].iter().map(|p| c.distance_to(p).0).fold(0.0, f64::max);
+        assert!((d - f.max_errors[k]).abs() < 1e-9);
+    }
+    // The coarse contour is interpolated or nearly so.
+    assert!(f.max_errors[0] < 1e-3, "{:?}", f.max_errors);
+}

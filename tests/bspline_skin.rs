@@ -1,0 +1,192 @@
+//! Skinning: the surface reproduces each curve at its v̄_k, meets the end-tangent conditions,
+//! closes smoothly onto caps; partials and the closest point against references.
+
+#[path = "bspline_helpers.rs"]
+mod helpers;
+
+use bskin::bspline::{fit_common, skin, ClosedCurve, FitOptions, SkinnedSurface};
+use helpers::{dist, lift, star};
+use proptest::prelude::*;
+
+fn region(sizes: &[usize], seed: u64, caps: (bool, bool)) -> (Vec<ClosedCurve<3>>, f64) {
+    let mut contours: Vec<Vec<[f64; 3]>> = sizes
+        .iter()
+        .enumerate()
+        .map(|(k, &m)| lift(&star(m, 20.0 + 2.0 * (k as f64).sin(), 0.02, seed + k as u64), 3.0 * (k + 1) as f64))
+        .collect();
+    if caps.0 {
+        contours.insert(0, vec![[0.3, -0.2, 1.5]]);
+    }
+    if caps.1 {
+        let z = 3.0 * (sizes.len() + 1) as f64 - 1.5;
+        contours.push(vec![[-0.1, 0.4, z]]);
+    }
+    let f = fit_common(&contours, &FitOptions::new(0.05)).unwrap();
+    (f.curves, 0.05)
+}
+
+fn sv_start_expected(curves: &[ClosedCurve<3>], vb: &[f64], i: usize, end: bool) -> [f64; 3] {
+    let r = curves.len() - 1;
+    let b = |k: usize| curves[k].control()[i];
+    let sub = |a: [f64; 3], c: [f64; 3], h: f64| -> [f64; 3] { std::array::from_fn(|x| (a[x] - c[x]) / h) };
+    if r == 1 {
+        return sub(b(1), b(0), vb[1] - vb[0]);
+    }
+    if !end {
+        let (h1, h2) = (vb[1] - vb[0], vb[2] - vb[1]);
+        let (d1, d2) = (sub(b(1), b(0), h1), sub(b(2), b(1), h2));
+        std::array::from_fn(|x| ((2.0 * h1 + h2) * d1[x] - h1 * d2[x]) / (h1 + h2))
+    } else {
+        let (h1, h2) = (vb[r - 1] - vb[r - 2], vb[r] - vb[r - 1]);
+        let (d1, d2) = (sub(b(r - 1), b(r - 2), h1), sub(b(r), b(r - 1), h2));
+        std::array::from_fn(|x| ((2.0 * h2 + h1) * d2[x] - h2 * d1[x]) / (h1 + h2))
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    #[test]
+    fn surface_interpolates_curves_and_end_tangents(
+        sizes in prop::collection::vec(8usize..200, 2..7),
+        seed in 0u64..1_000_000,
+    ) {
+        let (curves, _) = region(&sizes, seed, (false, false));
+        let s = skin(&curves).unwrap();
+        let r = curves.len() - 1;
+        prop_assert_eq!(s.n_u(), curves[0].control().len());
+        prop_assert_eq!(s.n_v(), r + 3);
+        let vb = s.v_bar().to_vec();
+        prop_assert_eq!(vb.len(), r + 1);
+        prop_assert!(vb[0] == 0.0 && vb[r] == r as f64);
+        let n1 = s.n_u();
+        for (k, c) in curves.iter().enumerate() {
+            for q in 0..50 {
+                let u = n1 as f64 * q as f64 / 50.0;
+                let e = dist(&s.eval(u, vb[k]), &c.eval(u));
+                prop_assert!(e < 1e-9, "curve {k} at u = {u}: {e}");
+            }
+        }
+        // End conditions on the control net: V_{i,1} − V_{i,0} = (v_1/3) T_{i,0}, etc.
+        let vk = s.v_knots().knots();
+        let (v1, vr1) = (vk[4], vk[vk.len() - 5]);
+        for i in 0..n1 {
+            let t0 = sv_start_expected(&curves, &vb, i, false);
+            let tr = sv_start_expected(&curves, &vb, i, true);
+            let d0: [f64; 3] = std::array::from_fn(|x| (s.control_point(i, 1)[x] - s.control_point(i, 0)[x]) * 3.0 / v1);
+            let dr: [f64; 3] = std::array::from_fn(|x| (s.control_point(i, r + 2)[x] - s.control_point(i, r + 1)[x]) * 3.0 / (r as f64 - vr1));
+            prop_assert!(dist(&d0, &t0) < 1e-8 * (1.0 + dist(&t0, &[0.0; 3])));
+            prop_assert!(dist(&dr, &tr) < 1e-8 * (1.0 + dist(&tr, &[0.0; 3])));
+        }
+        // S_v along the boundary is the B-spline of the end tangents.
+        let t0c: Vec<[f64; 3]> = (0..n1).map(|i| sv_start_expected(&curves, &vb, i, false)).collect();
+        let tcurve = ClosedCurve::try_new(s.u_knots().clone(), t0c).unwrap();
+        for q in 0..20 {
+            let u = n1 as f64 * q as f64 / 20.0;
+            let (_, _, sv) = s.partials(u, 0.0);
+            let e = tcurve.eval(u);
+            prop_assert!(dist(&sv, &e) < 1e-7 * (1.0 + dist(&e, &[0.0; 3])));
+        }
+    }
+
+    /// Partial derivatives against central differences.
+    #[test]
+    fn partials_match_finite_differences(seed in 0u64..1_000_000, uf in 0.0f64..1.0, vf in 0.02f64..0.98) {
+        let (curves, _) = region(&[40, 60, 50, 30], seed, (false, false));
+        let s = skin(&curves).unwrap();
+        let (u, v) = (uf * s.n_u() as f64, vf * 3.0);
+        let h = 1e-5;
+        let (_, su, sv) = s.partials(u, v);
+        let fu: [f64; 3] = std::array::from_fn(|x| (s.eval(u + h, v)[x] - s.eval(u - h, v)[x]) / (2.0 * h));
+        let fv: [f64; 3] = std::array::from_fn(|x| (s.eval(u, v + h)[x] - s.eval(u, v - h)[x]) / (2.0 * h));
+        prop_assert!(dist(&su, &fu) < 1e-5 * (1.0 + dist(&su, &[0.0; 3])));
+        prop_assert!(dist(&sv, &fv) < 1e-5 * (1.0 + dist(&sv, &[0.0; 3])));
+        let d = s.derivs2(u, v);
+        let (_, su2, sv2) = s.partials(u + h, v);
+        let (_, su1, sv1) = s.partials(u - h, v);
+        let fuu: [f64; 3] = std::array::from_fn(|x| (su2[x] - su1[x]) / (2.0 * h));
+        let fuv: [f64; 3] = std::array::from_fn(|x| (sv2[x] - sv1[x]) / (2.0 * h));
+        prop_assert!(dist(&d[3], &fuu) < 1e-3 * (1.0 + dist(&d[3], &[0.0; 3])));
+        prop_assert!(dist(&d[4], &fuv) < 1e-3 * (1.0 + dist(&d[4], &[0.0; 3])));
+    }
+
+    /// Closest point: never worse than a dense sample grid, and exact for points offset along
+    /// the normal from a surface point.
+    #[test]
+    fn closest_point_is_global(seed in 0u64..1_000_000, px in -30.0f64..30.0, py in -30.0f64..30.0, pz in 0.0f64..15.0) {
+        let (curves, _) = region(&[30, 40, 30], seed, (true, false));
+        let s = skin(&curves).unwrap();
+        let p = [px, py, pz];
+        let (d, u, v) = s.closest_point(&p);
+        prop_assert!((dist(&s.eval(u, v), &p) - d).abs() < 1e-12);
+        let (nu, nv) = (400, 120);
+        let rr = (s.v_bar().len() - 1) as f64;
+        let mut brute = f64::INFINITY;
+        for a in 0..nu {
+            for b in 0..=nv {
+                brute = brute.min(dist(&s.eval(s.n_u() as f64 * a as f64 / nu as f64, rr * b as f64 / nv as f64), &p));
+            }
+        }
+        prop_assert!(d <= brute + 1e-9, "closest {d} > grid {brute}");
+        // Offset along the normal from an interior point.
+        let (u0, v0) = (0.37 * s.n_u() as f64, 0.55 * rr);
+        let (q, su, sv) = s.partials(u0, v0);
+        let n = [su[1] * sv[2] - su[2] * sv[1], su[2] * sv[0] - su[0] * sv[2], su[0] * sv[1] - su[1] * sv[0]];
+        let nl = dist(&n, &[0.0; 3]);
+        let off = 0.01;
+        let p2: [f64; 3] = std::array::from_fn(|x| q[x] + off * n[x] / nl);
+        let (d2, _, _) = s.closest_point(&p2);
+        prop_assert!((d2 - off).abs() < 1e-8, "{d2} vs {off}");
+    }
+}
+
+/// Caps at both ends: the surface collapses to the cap point at v = 0 and v = r, and S_v there
+/// lies in the slice plane for every u (a tangent plane exists: a smooth dome, not a cone).
+#[test]
+fn caps_close_smoothly() {
+    let (curves, _) = region(&[60, 80, 70], 11, (true, true));
+    let s: SkinnedSurface = skin(&curves).unwrap();
+    let r = (curves.len() - 1) as f64;
+    let n1 = s.n_u();
+    for q in 0..40 {
+        let u = n1 as f64 * q as f64 / 40.0;
+        assert!(dist(&s.eval(u, 0.0), &[0.3, -0.2, 1.5]) < 1e-12);
+        assert!(dist(&s.eval(u, r), &[-0.1, 0.4, 10.5]) < 1e-12);
+        let (_, _, sv0) = s.partials(u, 0.0);
+        let (_, _, svr) = s.partials(u, r);
+        assert!(sv0[2].abs() < 1e-9 * (1.0 + dist(&sv0, &[0.0; 3])), "{sv0:?}");
+        assert!(svr[2].abs() < 1e-9 * (1.0 + dist(&svr, &[0.0; 3])), "{svr:?}");
+        // The tangents point away from the cap, towards the neighbouring contour.
+        let p1 = s.eval(u, 0.05);
+        let dir: [f64; 3] = std::array::from_fn(|x| p1[x] - s.eval(u, 0.0)[x]);
+        assert!(dir[0] * sv0[0] + dir[1] * sv0[1] > 0.0);
+    }
+    // Still interpolates the curves.
+    for (k, c) in curves.iter().enumerate() {
+        assert!(dist(&s.eval(1.3, s.v_bar()[k]), &c.eval(1.3)) < 1e-9);
+    }
+}
+
+#[test]
+fn skinning_rejects_bad_input() {
+    let (curves, _) = region(&[30, 40], 5, (false, false));
+    assert!(skin(&curves[..1]).is_err());
+    let dup = vec![curves[0].clone(), curves[0].clone(), curves[1].clone()];
+    let e = skin(&dup).unwrap_err();
+    assert!(e.to_string().contains("curves 0 and 1 coincide"), "{e}");
+    let other = ClosedCurve::try_new(
+        bskin::bspline::PeriodicKnotVector::uniform(curves[0].control().len() + 1).unwrap(),
+        vec![[0.0, 0.0, 9.0]; curves[0].control().len() + 1],
+    )
+    .unwrap();
+    assert!(skin(&[curves[0].clone(), other]).is_err());
+}
+
+/// Two curves (r = 1): a Hermite patch between them with chord tangents.
+#[test]
+fn two_curves_skin() {
+    let (curves, _) = region(&[30, 40], 9, (false, false));
+    let s = skin(&curves).unwrap();
+    assert_eq!(s.n_v(), 4);
+    assert!(dist(&s.eval(2.0, 1.0), &curves[1].eval(2.0)) < 1e-9);
+}
