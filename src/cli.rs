@@ -6,7 +6,11 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "bskin", version, about = "Bicubic B-spline surfaces from stacks of cross-sections (DICOM CT/MR)")]
+#[command(
+    name = "bskin",
+    version,
+    about = "Bicubic B-spline surfaces from stacks of cross-sections (DICOM CT/MR)"
+)]
 pub struct Cli {
     /// Print nothing but errors (no progress, no summary).
     #[arg(short, long, global = true)]
@@ -143,9 +147,17 @@ pub struct PhantomArgs {
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
-    let (lo, hi) = s.split_once(':').ok_or_else(|| format!("expected LO:HI, got {s:?}"))?;
-    let lo: f64 = lo.trim().parse().map_err(|_| format!("LO is not a number in {s:?}"))?;
-    let hi: f64 = hi.trim().parse().map_err(|_| format!("HI is not a number in {s:?}"))?;
+    let (lo, hi) = s
+        .split_once(':')
+        .ok_or_else(|| format!("expected LO:HI, got {s:?}"))?;
+    let lo: f64 = lo
+        .trim()
+        .parse()
+        .map_err(|_| format!("LO is not a number in {s:?}"))?;
+    let hi: f64 = hi
+        .trim()
+        .parse()
+        .map_err(|_| format!("HI is not a number in {s:?}"))?;
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
         return Err(format!("need finite LO < HI, got {s:?}"));
     }

@@ -19,9 +19,9 @@ use bskin::geometry::contours::{ContourOptions, Threshold};
 use bskin::io::atomic::Output;
 use bskin::io::ndjson::{NdjsonReader, NdjsonWriter, SeriesRecord};
 use bskin::io::report::{InputReport, Report, Timings};
+use bskin::phantom::{self, PhantomSpec, Shape};
 use bskin::pipeline::RunInput;
 use bskin::stages::s8_write;
-use bskin::phantom::{self, PhantomSpec, Shape};
 use bskin::stages::Control;
 use bskin::{pipeline, Error, Result, SeriesSummary};
 use cli::{Cli, Command, ContoursArgs, InfoArgs, PhantomArgs, RunArgs, SegmentationArgs};
@@ -30,7 +30,10 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose, cli.quiet);
     if let Some(n) = cli.threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+        {
             eprintln!("bskin: cannot set {n} threads: {e}");
             return ExitCode::Usage.into();
         }
@@ -99,12 +102,21 @@ fn contour_options(a: &SegmentationArgs) -> Result<ContourOptions> {
     };
     if let Threshold::Above(t) = threshold {
         if !t.is_finite() {
-            return Err(Error::bad_input("--threshold", format!("{t} is not a finite HU value")));
+            return Err(Error::bad_input(
+                "--threshold",
+                format!("{t} is not a finite HU value"),
+            ));
         }
     }
-    for (name, v) in [("--min-area", a.min_area), ("--compress-tol", a.compress_tol)] {
+    for (name, v) in [
+        ("--min-area", a.min_area),
+        ("--compress-tol", a.compress_tol),
+    ] {
         if !(v.is_finite() && v >= 0.0) {
-            return Err(Error::bad_input(name, format!("must be a finite number ≥ 0, got {v}")));
+            return Err(Error::bad_input(
+                name,
+                format!("must be a finite number ≥ 0, got {v}"),
+            ));
         }
     }
     Ok(ContourOptions {
@@ -120,7 +132,10 @@ fn open_series(dir: &Path, selector: Option<&str>, quiet: bool) -> Result<Series
     let scan = dicom::scan(dir)?;
     if !quiet {
         if scan.not_dicom > 0 {
-            eprintln!("bskin: note: skipped {} file(s) that are not DICOM", scan.not_dicom);
+            eprintln!(
+                "bskin: note: skipped {} file(s) that are not DICOM",
+                scan.not_dicom
+            );
         }
         for (p, why) in &scan.unreadable {
             eprintln!("bskin: note: skipped {}: {why}", p.display());
@@ -185,7 +200,10 @@ fn contours(args: ContoursArgs, quiet: bool, ctl: &Control) -> Result<()> {
         if to_stdout {
             Error::io("stdout", e)
         } else {
-            Error::Output { path: args.output.clone(), source: e }
+            Error::Output {
+                path: args.output.clone(),
+                source: e,
+            }
         }
     };
     let mut writer = NdjsonWriter::new(output, &header).map_err(write_err)?;
@@ -212,7 +230,10 @@ fn contours(args: ContoursArgs, quiet: bool, ctl: &Control) -> Result<()> {
             started.elapsed().as_secs_f64()
         );
         if summary.contours == 0 {
-            eprintln!("bskin: note: the segmentation is empty: no contour at {:?} in any slice", opts.threshold);
+            eprintln!(
+                "bskin: note: the segmentation is empty: no contour at {:?} in any slice",
+                opts.threshold
+            );
         }
     }
     Ok(())
@@ -222,29 +243,42 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let started = Instant::now();
     let opts = contour_options(&args.segmentation)?;
     if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
-        return Err(Error::bad_input("--tolerance", format!("must be a positive number of mm, got {}", args.tolerance)));
+        return Err(Error::bad_input(
+            "--tolerance",
+            format!("must be a positive number of mm, got {}", args.tolerance),
+        ));
     }
     let mut config = RunConfig::with_tolerance(args.tolerance);
     config.contour = opts.clone();
     config.pipeline.channel_depth = args.pipeline.channel_depth.max(1);
     if let Some(c) = args.cell {
         if !(c.is_finite() && c > 0.0) {
-            return Err(Error::bad_input("--cell", format!("must be a positive number of mm, got {c}")));
+            return Err(Error::bad_input(
+                "--cell",
+                format!("must be a positive number of mm, got {c}"),
+            ));
         }
         config.cell_mm = c;
     }
     let out = &args.output;
-    std::fs::create_dir_all(out).map_err(|e| Error::Output { path: out.clone(), source: e })?;
+    std::fs::create_dir_all(out).map_err(|e| Error::Output {
+        path: out.clone(),
+        source: e,
+    })?;
 
     let input_path = &args.series.input;
     let from_stdin = input_path.as_os_str() == "-";
     let series;
     let (input, summary) = if from_stdin {
         let reader = NdjsonReader::new(std::io::BufReader::new(std::io::stdin()))?;
-        let summary = reader.header.as_ref().map(|h| h.series.clone()).unwrap_or_else(|| SeriesSummary {
-            source: "-".into(),
-            ..Default::default()
-        });
+        let summary = reader
+            .header
+            .as_ref()
+            .map(|h| h.series.clone())
+            .unwrap_or_else(|| SeriesSummary {
+                source: "-".into(),
+                ..Default::default()
+            });
         (RunInput::Sections(Box::new(reader)), summary)
     } else {
         series = open_series(input_path, args.series.series.as_deref(), quiet)?;
@@ -260,7 +294,10 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
 
     let surfaces = result.written.surfaces;
     let input_points_total: usize = surfaces.iter().map(|s| s.input_points).sum();
-    let control_points_total: usize = surfaces.iter().map(|s| s.control_points[0] * s.control_points[1]).sum();
+    let control_points_total: usize = surfaces
+        .iter()
+        .map(|s| s.control_points[0] * s.control_points[1])
+        .sum();
     let max_error_mm = surfaces.iter().map(|s| s.max_error_mm).fold(0.0, f64::max);
     let report = Report {
         format: bskin::io::report::FORMAT,
@@ -293,7 +330,10 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         tolerance_met: surfaces.iter().all(|s| s.tolerance_met),
         surfaces,
         files: result.written.files,
-        timings: Timings { wall_s: started.elapsed().as_secs_f64(), stages: result.stages },
+        timings: Timings {
+            wall_s: started.elapsed().as_secs_f64(),
+            stages: result.stages,
+        },
         peak_rss_mb: bskin::io::report::peak_rss_mb(),
         warnings: ctl.warnings(),
     };
@@ -315,7 +355,11 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         for w in &report.warnings {
             eprintln!("bskin: warning: {w}");
         }
-        eprintln!("bskin: wrote {} and {}", report_path.display(), out.join(s8_write::MESH_FILE).display());
+        eprintln!(
+            "bskin: wrote {} and {}",
+            report_path.display(),
+            out.join(s8_write::MESH_FILE).display()
+        );
     }
     Ok(())
 }
@@ -323,8 +367,13 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
 fn info(args: InfoArgs) -> Result<()> {
     let scan = dicom::scan(&args.input)?;
     let mut out = std::io::stdout().lock();
-    let text = if args.json { dicom::scan_json(&scan) } else { dicom::scan_text(&scan) };
-    out.write_all(text.as_bytes()).map_err(|e| Error::io("stdout", e))?;
+    let text = if args.json {
+        format!("{:#}\n", bskin::io::listing::scan_json(&scan))
+    } else {
+        bskin::io::listing::scan_text(&scan)
+    };
+    out.write_all(text.as_bytes())
+        .map_err(|e| Error::io("stdout", e))?;
     Ok(())
 }
 
@@ -332,7 +381,11 @@ fn make_phantom(args: PhantomArgs, quiet: bool) -> Result<()> {
     let shape = Shape::from_name(&args.shape).ok_or_else(|| {
         Error::bad_input(
             "<shape>",
-            format!("unknown shape {:?}; choose one of: {}", args.shape, Shape::NAMES.join(", ")),
+            format!(
+                "unknown shape {:?}; choose one of: {}",
+                args.shape,
+                Shape::NAMES.join(", ")
+            ),
         )
     })?;
     let spec = PhantomSpec {
@@ -348,9 +401,20 @@ fn make_phantom(args: PhantomArgs, quiet: bool) -> Result<()> {
         seed: args.seed,
         ..Default::default()
     };
-    let paths = phantom::write_series(&spec, &args.output)?;
+    let volume = phantom::generate(&spec)?;
+    let options = dicom::WriteOptions {
+        seed: args.seed,
+        description: format!("bskin phantom {}", shape.name()),
+        ..Default::default()
+    };
+    let paths = dicom::write_ct_series(&args.output, &volume.slices, &options)?;
     if !quiet {
-        eprintln!("bskin: wrote {} slices of {} to {}", paths.len(), shape.name(), args.output.display());
+        eprintln!(
+            "bskin: wrote {} slices of {} to {}",
+            paths.len(),
+            shape.name(),
+            args.output.display()
+        );
     }
     Ok(())
 }

@@ -31,7 +31,10 @@ pub fn tessellate(s: &SkinnedSurface, per_span: usize) -> Vec<Triangle> {
     if let Some(&last) = v_bar.last() {
         vs.push(last);
     }
-    let grid: Vec<Vec<[f64; 3]>> = vs.iter().map(|&v| us.iter().map(|&u| s.eval(u, v)).collect()).collect();
+    let grid: Vec<Vec<[f64; 3]>> = vs
+        .iter()
+        .map(|&v| us.iter().map(|&u| s.eval(u, v)).collect())
+        .collect();
     let nu = us.len();
     let mut tris = Vec::with_capacity(2 * nu * vs.len());
     for j in 0..grid.len().saturating_sub(1) {
@@ -58,5 +61,9 @@ fn area2(t: &Triangle) -> f64 {
 pub fn normal(t: &Triangle) -> [f64; 3] {
     let u = [t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]];
     let v = [t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]];
-    [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
 }

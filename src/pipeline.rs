@@ -156,7 +156,13 @@ pub fn run_surfaces(
                         let contours = inner.spawn(|| {
                             cancel_on_error(
                                 ctl,
-                                s2_contours::run(images_rx, &config.contour, batch, sections_tx, ctl),
+                                s2_contours::run(
+                                    images_rx,
+                                    &config.contour,
+                                    batch,
+                                    sections_tx,
+                                    ctl,
+                                ),
                             )
                         });
                         let sections = sections_rx.iter().map(|c| {
@@ -166,7 +172,12 @@ pub fn run_surfaces(
                         });
                         let corr = cancel_on_error(
                             ctl,
-                            s3_correspondence::run(sections, config.fallback_spacing_mm, transitions_tx, ctl),
+                            s3_correspondence::run(
+                                sections,
+                                config.fallback_spacing_mm,
+                                transitions_tx,
+                                ctl,
+                            ),
                         );
                         let mut f = None;
                         stats.extend(settle(join(load), &mut f));
@@ -188,19 +199,30 @@ pub fn run_surfaces(
                         on_section(&s);
                         Ok(s)
                     });
-                    let r = s3_correspondence::run(sections, config.fallback_spacing_mm, transitions_tx, ctl);
+                    let r = s3_correspondence::run(
+                        sections,
+                        config.fallback_spacing_mm,
+                        transitions_tx,
+                        ctl,
+                    );
                     cancel_on_error(ctl, r).map(|s| stats.push(s))
                 }
             };
             r.map(|()| (counts, stats))
         });
         let branching = scope.spawn(|| {
-            cancel_on_error(ctl, s4_branching::run(transitions_rx, config.cell_mm, regions_tx, ctl))
+            cancel_on_error(
+                ctl,
+                s4_branching::run(transitions_rx, config.cell_mm, regions_tx, ctl),
+            )
         });
         let alignment =
             scope.spawn(|| cancel_on_error(ctl, s5_alignment::run(regions_rx, aligned_tx, ctl)));
         let fitting = scope.spawn(|| {
-            cancel_on_error(ctl, s6_fitting::run(aligned_rx, &fit_opts, batch, fitted_tx, ctl))
+            cancel_on_error(
+                ctl,
+                s6_fitting::run(aligned_rx, &fit_opts, batch, fitted_tx, ctl),
+            )
         });
         let skinning = scope.spawn(|| {
             cancel_on_error(
@@ -210,7 +232,13 @@ pub fn run_surfaces(
         });
         let written = cancel_on_error(
             ctl,
-            s8_write::run(surfaces_rx, out_dir, config.tolerance_mm, config.mesh_samples_per_span, ctl),
+            s8_write::run(
+                surfaces_rx,
+                out_dir,
+                config.tolerance_mm,
+                config.mesh_samples_per_span,
+                ctl,
+            ),
         );
         if let Some((counts, stats)) = settle(join(front), &mut failure) {
             summary.input = counts;

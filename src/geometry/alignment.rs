@@ -28,7 +28,9 @@ fn nearest(curve: &[[f64; 3]], p: [f64; 3]) -> usize {
 
 /// Start index of every curve (0 for single points). Empty curves are not allowed.
 pub fn baseline(curves: &[&[[f64; 3]]]) -> Vec<usize> {
-    let Some(first) = curves.first() else { return Vec::new() };
+    let Some(first) = curves.first() else {
+        return Vec::new();
+    };
     let step = first.len().div_ceil(MAX_CANDIDATES).max(1);
     let mut best: Option<(f64, Vec<usize>)> = None;
     for start in (0..first.len()).step_by(step) {

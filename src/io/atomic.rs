@@ -64,28 +64,6 @@ impl Write for AtomicFile {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nothing_under_the_final_name_until_commit() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("out.txt");
-        let mut f = AtomicFile::create(&path).unwrap();
-        f.write_all(b"hello").unwrap();
-        assert!(!path.exists());
-        f.commit().unwrap();
-        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
-
-        let mut g = AtomicFile::create(&path).unwrap();
-        g.write_all(b"half").unwrap();
-        drop(g); // a failed run: the old file stays, no temporary is left behind
-        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
-    }
-}
-
 /// Where a stream goes: stdout ("-"), or a file written atomically.
 pub enum Output {
     Stdout(std::io::BufWriter<std::io::Stdout>),
@@ -95,7 +73,10 @@ pub enum Output {
 impl Output {
     pub fn open(path: &Path) -> Result<Self> {
         if path.as_os_str() == "-" {
-            Ok(Output::Stdout(std::io::BufWriter::with_capacity(1 << 16, std::io::stdout())))
+            Ok(Output::Stdout(std::io::BufWriter::with_capacity(
+                1 << 16,
+                std::io::stdout(),
+            )))
         } else {
             Ok(Output::File(AtomicFile::create(path)?))
         }
@@ -128,5 +109,27 @@ impl Write for Output {
 impl std::io::Seek for AtomicFile {
     fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
         self.writer.seek(pos)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nothing_under_the_final_name_until_commit() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.txt");
+        let mut f = AtomicFile::create(&path).unwrap();
+        f.write_all(b"hello").unwrap();
+        assert!(!path.exists());
+        f.commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
+
+        let mut g = AtomicFile::create(&path).unwrap();
+        g.write_all(b"half").unwrap();
+        drop(g); // a failed run: the old file stays, no temporary is left behind
+        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

@@ -28,7 +28,11 @@ impl<W: Write + Seek> StlWriter<W> {
         for t in tris {
             let n = normal(t);
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            let n = if len > 0.0 { [n[0] / len, n[1] / len, n[2] / len] } else { [0.0; 3] };
+            let n = if len > 0.0 {
+                [n[0] / len, n[1] / len, n[2] / len]
+            } else {
+                [0.0; 3]
+            };
             for v in std::iter::once(&n).chain(t.iter()) {
                 for c in v {
                     buf.extend_from_slice(&(*c as f32).to_le_bytes());

@@ -60,3 +60,14 @@ pub fn run(
     }
     Ok(stats)
 }
+
+/// A DICOM series decodes its slices on demand, in sorted order.
+impl SliceImages for crate::dicom::Series {
+    fn count(&self) -> usize {
+        self.slices.len()
+    }
+
+    fn load(&self, index: usize) -> Result<SliceImage> {
+        crate::dicom::decode_slice(self, &self.slices[index], index)
+    }
+}

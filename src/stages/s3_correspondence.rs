@@ -32,13 +32,25 @@ pub enum Side {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Problem {
     /// One contour below continues as one contour above.
-    Link { hole: bool, lower: usize, upper: usize },
+    Link {
+        hole: bool,
+        lower: usize,
+        upper: usize,
+    },
     /// m contours below and n above form one connected component with m + n ≥ 3.
-    Branch { hole: bool, lower: Vec<usize>, upper: Vec<usize> },
+    Branch {
+        hole: bool,
+        lower: Vec<usize>,
+        upper: Vec<usize>,
+    },
     /// Contours of one section with no counterpart on `side`: an outer contour with those of
     /// its holes that end with it (closed together, like the top of a flat torus), or a lone
     /// hole whose void closes while its outer contour goes on.
-    Cap { side: Side, outer: Option<usize>, holes: Vec<usize> },
+    Cap {
+        side: Side,
+        outer: Option<usize>,
+        holes: Vec<usize>,
+    },
 }
 
 /// The problems between two adjacent sections; `lower` is `None` below the first section and
@@ -100,17 +112,26 @@ pub fn correspond(lower: &Section, upper: &Section) -> Vec<Problem> {
             let overlap = if hole_i {
                 // Voids: the hole polygons themselves (clockwise; overlap is orientation-free).
                 regions_overlap(
-                    &Material { outer: lo[i], holes: Vec::new() },
-                    &Material { outer: up[j], holes: Vec::new() },
+                    &Material {
+                        outer: lo[i],
+                        holes: Vec::new(),
+                    },
+                    &Material {
+                        outer: up[j],
+                        holes: Vec::new(),
+                    },
                     0.0,
                 )
             } else {
-                let holes_of = |pts: &[&[Point]], arr: &Arranged, k: usize| -> Vec<&[Point]> {
-                    (0..pts.len()).filter(|&h| arr.parent[h] == Some(k)).map(|h| pts[h]).collect()
-                };
                 regions_overlap(
-                    &Material { outer: lo[i], holes: holes_of(&lo, &la, i) },
-                    &Material { outer: up[j], holes: holes_of(&up, &ua, j) },
+                    &Material {
+                        outer: lo[i],
+                        holes: holes_of(&lo, &la, i),
+                    },
+                    &Material {
+                        outer: up[j],
+                        holes: holes_of(&up, &ua, j),
+                    },
                     0.0,
                 )
             };
@@ -133,12 +154,25 @@ pub fn correspond(lower: &Section, upper: &Section) -> Vec<Problem> {
     comps.sort_by_key(|c| c[0]);
     for comp in comps {
         let lower_ids: Vec<usize> = comp.iter().copied().filter(|&k| k < m).collect();
-        let upper_ids: Vec<usize> = comp.iter().copied().filter(|&k| k >= m).map(|k| k - m).collect();
+        let upper_ids: Vec<usize> = comp
+            .iter()
+            .copied()
+            .filter(|&k| k >= m)
+            .map(|k| k - m)
+            .collect();
         let hole = lower.contours[lower_ids[0]].hole;
         problems.push(if lower_ids.len() == 1 && upper_ids.len() == 1 {
-            Problem::Link { hole, lower: lower_ids[0], upper: upper_ids[0] }
+            Problem::Link {
+                hole,
+                lower: lower_ids[0],
+                upper: upper_ids[0],
+            }
         } else {
-            Problem::Branch { hole, lower: lower_ids, upper: upper_ids }
+            Problem::Branch {
+                hole,
+                lower: lower_ids,
+                upper: upper_ids,
+            }
         });
     }
     let ending: Vec<bool> = (0..m).map(|i| !linked[i]).collect();
@@ -159,11 +193,19 @@ fn caps(section: &Section, arr: &Arranged, free: &[bool], side: Side) -> Vec<Pro
             let holes = (0..free.len())
                 .filter(|&h| free[h] && section.contours[h].hole && arr.parent[h] == Some(i))
                 .collect();
-            out.push(Problem::Cap { side, outer: Some(i), holes });
+            out.push(Problem::Cap {
+                side,
+                outer: Some(i),
+                holes,
+            });
         } else {
             let outer_free = arr.parent[i].is_some_and(|p| free[p] && !section.contours[p].hole);
             if !outer_free {
-                out.push(Problem::Cap { side, outer: None, holes: vec![i] });
+                out.push(Problem::Cap {
+                    side,
+                    outer: None,
+                    holes: vec![i],
+                });
             }
         }
     }
@@ -172,9 +214,21 @@ fn caps(section: &Section, arr: &Arranged, free: &[bool], side: Side) -> Vec<Pro
 
 /// Every contour of an end section is capped on its open side.
 fn end_caps(section: &Section, side: Side) -> Vec<Problem> {
-    let pts: Vec<&[Point]> = section.contours.iter().map(|c| c.points.as_slice()).collect();
+    let pts: Vec<&[Point]> = section
+        .contours
+        .iter()
+        .map(|c| c.points.as_slice())
+        .collect();
     let arr = arrange(&pts);
     caps(section, &arr, &vec![true; pts.len()], side)
+}
+
+/// The holes of contour `k` (its children in the nesting tree).
+fn holes_of<'a>(pts: &[&'a [Point]], arr: &Arranged, k: usize) -> Vec<&'a [Point]> {
+    (0..pts.len())
+        .filter(|&h| arr.parent[h] == Some(k))
+        .map(|h| pts[h])
+        .collect()
 }
 
 struct UnionFind(Vec<usize>);
@@ -208,17 +262,20 @@ pub fn run(
     out: Sender<Transition>,
     ctl: &Control,
 ) -> Result<StageStats> {
-    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut stats = StageStats {
+        stage: STAGE,
+        ..Default::default()
+    };
     let mut prev: Option<Arc<Section>> = None;
     let mut spacing = fallback_spacing;
-    let mut send = |t: Transition| out.send(t).is_ok();
+    let send = |t: Transition| out.send(t).is_ok();
     for section in input {
         ctl.check()?;
         let section = Arc::new(section?);
         if let Some(lower) = prev.take() {
             let t = Instant::now();
             spacing = section.frame.height() - lower.frame.height();
-            if !(spacing > 0.0) {
+            if spacing.is_nan() || spacing <= 0.0 {
                 return Err(Error::Slice {
                     stage: STAGE,
                     index: section.index,
@@ -235,7 +292,12 @@ pub fn run(
             if stats.items == 1 && !send(end_transition(&lower, Side::Below, spacing)) {
                 return Ok(stats);
             }
-            let t = Transition { lower: Some(lower), upper: Some(section.clone()), spacing, problems };
+            let t = Transition {
+                lower: Some(lower),
+                upper: Some(section.clone()),
+                spacing,
+                problems,
+            };
             if !send(t) {
                 return Ok(stats);
             }
@@ -255,7 +317,17 @@ pub fn run(
 fn end_transition(section: &Arc<Section>, side: Side, spacing: f64) -> Transition {
     let problems = end_caps(section, side);
     match side {
-        Side::Below => Transition { lower: None, upper: Some(section.clone()), spacing, problems },
-        Side::Above => Transition { lower: Some(section.clone()), upper: None, spacing, problems },
+        Side::Below => Transition {
+            lower: None,
+            upper: Some(section.clone()),
+            spacing,
+            problems,
+        },
+        Side::Above => Transition {
+            lower: Some(section.clone()),
+            upper: None,
+            spacing,
+            problems,
+        },
     }
 }

@@ -23,12 +23,18 @@ use crate::{Error, Result};
 pub const STAGE: &str = "branching";
 
 /// The curves a problem contributes, in the lower section's frame (2-D), before lifting.
-enum Solved {
+pub enum Solved {
     Link,
     /// Intermediate contours: one per lower contour, one per upper contour.
-    Branch { lower: Vec<Intermediate>, upper: Vec<Intermediate> },
+    Branch {
+        lower: Vec<Intermediate>,
+        upper: Vec<Intermediate>,
+    },
     /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
-    Cap { outer: Option<Intermediate>, holes: Vec<Intermediate> },
+    Cap {
+        outer: Option<Intermediate>,
+        holes: Vec<Intermediate>,
+    },
 }
 
 fn lift(frame: &SliceFrame, p: Point, dz: f64) -> [f64; 3] {
@@ -52,8 +58,15 @@ fn lift_curve(frame: &SliceFrame, c: &Intermediate, dz: f64, reverse: bool) -> V
 
 fn contour_curve(section: &Section, k: usize) -> RegionCurve {
     RegionCurve {
-        points: section.contours[k].points.iter().map(|&p| section.frame.to_patient(p)).collect(),
-        origin: CurveOrigin::Contour { slice: section.index, contour: k },
+        points: section.contours[k]
+            .points
+            .iter()
+            .map(|&p| section.frame.to_patient(p))
+            .collect(),
+        origin: CurveOrigin::Contour {
+            slice: section.index,
+            contour: k,
+        },
     }
 }
 
@@ -63,8 +76,11 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
     ids.iter()
         .map(|&k| {
             let c = &section.contours[k];
-            let mut pts: Vec<Point> =
-                c.points.iter().map(|&p| frame.to_plane(section.frame.to_patient(p))).collect();
+            let mut pts: Vec<Point> = c
+                .points
+                .iter()
+                .map(|&p| frame.to_plane(section.frame.to_patient(p)))
+                .collect();
             if c.hole {
                 pts.reverse();
             }
@@ -73,13 +89,19 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
         .collect()
 }
 
-fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
-    let geometry = |e, what: String| Error::Geometry { stage: STAGE, context: what, source: e };
+pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
+    let geometry = |e, what: String| Error::Geometry {
+        stage: STAGE,
+        context: what,
+        source: e,
+    };
     match p {
         Problem::Link { .. } => Ok(Solved::Link),
         Problem::Branch { lower, upper, .. } => {
             let (Some(lo), Some(up)) = (&t.lower, &t.upper) else {
-                return Err(Error::Internal("branching problem at the end of the series".into()));
+                return Err(Error::Internal(
+                    "branching problem at the end of the series".into(),
+                ));
             };
             let a = ccw_in(&lo.frame, lo, lower);
             let b = ccw_in(&lo.frame, up, upper);
@@ -100,7 +122,10 @@ fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Sol
             for w in &r.warnings {
                 ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             }
-            Ok(Solved::Branch { lower: r.lower, upper: r.upper })
+            Ok(Solved::Branch {
+                lower: r.lower,
+                upper: r.upper,
+            })
         }
         Problem::Cap { side, outer, holes } => {
             let section = match side {
@@ -109,8 +134,16 @@ fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Sol
             }
             .ok_or_else(|| Error::Internal("cap without its section".into()))?;
             let frame = &section.frame;
-            let hole_pts: Vec<Vec<Point>> = holes.iter().map(|&h| section.contours[h].points.clone()).collect();
-            let what = || format!("slice {}, cap of contours {outer:?} + holes {holes:?}", section.index);
+            let hole_pts: Vec<Vec<Point>> = holes
+                .iter()
+                .map(|&h| section.contours[h].points.clone())
+                .collect();
+            let what = || {
+                format!(
+                    "slice {}, cap of contours {outer:?} + holes {holes:?}",
+                    section.index
+                )
+            };
             match outer {
                 Some(o) => {
                     let hole_refs: Vec<&[Point]> = hole_pts.iter().map(|v| v.as_slice()).collect();
@@ -119,13 +152,19 @@ fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Sol
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: {w}", section.index));
                     }
-                    Ok(Solved::Cap { outer: Some(caps.outer), holes: caps.holes })
+                    Ok(Solved::Cap {
+                        outer: Some(caps.outer),
+                        holes: caps.holes,
+                    })
                 }
                 None => {
                     // A lone void closing: cap it as the solid region it bounds.
                     let void = ccw_in(frame, section, holes);
                     let caps = cap(&void[0], &[], cell_mm).map_err(|e| geometry(e, what()))?;
-                    Ok(Solved::Cap { outer: None, holes: vec![caps.outer] })
+                    Ok(Solved::Cap {
+                        outer: None,
+                        holes: vec![caps.outer],
+                    })
                 }
             }
         }
@@ -149,14 +188,18 @@ impl Assembler {
 
     fn take(&mut self, k: usize, section: &Section) -> Result<Region> {
         self.open.get_mut(k).and_then(Option::take).ok_or_else(|| {
-            Error::Internal(format!("slice {}: contour {k} has no open region", section.index))
+            Error::Internal(format!(
+                "slice {}: contour {k} has no open region",
+                section.index
+            ))
         })
     }
 
     /// Apply one transition; returns the regions it closes, in problem order.
     pub fn apply(&mut self, t: &Transition, solved: Vec<Solved>) -> Result<Vec<Region>> {
         let mut closed = Vec::new();
-        let mut next: Vec<Option<Region>> = vec![None; t.upper.as_ref().map_or(0, |u| u.contours.len())];
+        let mut next: Vec<Option<Region>> =
+            vec![None; t.upper.as_ref().map_or(0, |u| u.contours.len())];
         let half = 0.5 * t.spacing;
         for (p, s) in t.problems.iter().zip(solved) {
             match (p, s) {
@@ -166,12 +209,24 @@ impl Assembler {
                     r.curves.push(contour_curve(up, *upper));
                     next[*upper] = Some(r);
                 }
-                (Problem::Branch { hole, lower, upper }, Solved::Branch { lower: il, upper: iu }) => {
+                (
+                    Problem::Branch { hole, lower, upper },
+                    Solved::Branch {
+                        lower: il,
+                        upper: iu,
+                    },
+                ) => {
                     let (lo, up) = both(t)?;
-                    let origin = CurveOrigin::Intermediate { below: lo.index, above: up.index };
+                    let origin = CurveOrigin::Intermediate {
+                        below: lo.index,
+                        above: up.index,
+                    };
                     for (&k, c) in lower.iter().zip(&il) {
                         let mut r = self.take(k, lo)?;
-                        r.curves.push(RegionCurve { points: lift_curve(&lo.frame, c, half, *hole), origin });
+                        r.curves.push(RegionCurve {
+                            points: lift_curve(&lo.frame, c, half, *hole),
+                            origin,
+                        });
                         self.close(r, &mut closed);
                     }
                     for (&k, c) in upper.iter().zip(&iu) {
@@ -179,13 +234,22 @@ impl Assembler {
                             id: 0,
                             hole: *hole,
                             curves: vec![
-                                RegionCurve { points: lift_curve(&lo.frame, c, half, *hole), origin },
+                                RegionCurve {
+                                    points: lift_curve(&lo.frame, c, half, *hole),
+                                    origin,
+                                },
                                 contour_curve(up, k),
                             ],
                         });
                     }
                 }
-                (Problem::Cap { side, outer, holes }, Solved::Cap { outer: co, holes: ch }) => {
+                (
+                    Problem::Cap { side, outer, holes },
+                    Solved::Cap {
+                        outer: co,
+                        holes: ch,
+                    },
+                ) => {
                     let mut ends: Vec<(usize, bool, Intermediate)> = Vec::new();
                     if let (Some(o), Some(c)) = (outer, co) {
                         ends.push((*o, false, c));
@@ -193,23 +257,35 @@ impl Assembler {
                     ends.extend(holes.iter().zip(ch).map(|(&h, c)| (h, true, c)));
                     match side {
                         Side::Above => {
-                            let lo = t.lower.as_ref().ok_or_else(|| Error::Internal("cap above nothing".into()))?;
+                            let lo = t
+                                .lower
+                                .as_ref()
+                                .ok_or_else(|| Error::Internal("cap above nothing".into()))?;
                             let origin = CurveOrigin::Cap { slice: lo.index };
                             for (k, hole, c) in ends {
                                 let mut r = self.take(k, lo)?;
-                                r.curves.push(RegionCurve { points: lift_curve(&lo.frame, &c, half, hole), origin });
+                                r.curves.push(RegionCurve {
+                                    points: lift_curve(&lo.frame, &c, half, hole),
+                                    origin,
+                                });
                                 self.close(r, &mut closed);
                             }
                         }
                         Side::Below => {
-                            let up = t.upper.as_ref().ok_or_else(|| Error::Internal("cap below nothing".into()))?;
+                            let up = t
+                                .upper
+                                .as_ref()
+                                .ok_or_else(|| Error::Internal("cap below nothing".into()))?;
                             let origin = CurveOrigin::Cap { slice: up.index };
                             for (k, hole, c) in ends {
                                 next[k] = Some(Region {
                                     id: 0,
                                     hole,
                                     curves: vec![
-                                        RegionCurve { points: lift_curve(&up.frame, &c, -half, hole), origin },
+                                        RegionCurve {
+                                            points: lift_curve(&up.frame, &c, -half, hole),
+                                            origin,
+                                        },
                                         contour_curve(up, k),
                                     ],
                                 });
@@ -221,7 +297,9 @@ impl Assembler {
             }
         }
         if let Some(k) = self.open.iter().position(Option::is_some) {
-            return Err(Error::Internal(format!("contour {k} was left without a problem")));
+            return Err(Error::Internal(format!(
+                "contour {k} was left without a problem"
+            )));
         }
         self.open = next;
         Ok(closed)
@@ -241,14 +319,20 @@ pub fn run(
     out: Sender<Region>,
     ctl: &Control,
 ) -> Result<StageStats> {
-    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut stats = StageStats {
+        stage: STAGE,
+        ..Default::default()
+    };
     let mut assembler = Assembler::default();
     for t in input.iter() {
         ctl.check()?;
         let start = Instant::now();
         // The problems of one transition are independent: solve them in parallel, in order.
-        let solved: Result<Vec<Solved>> =
-            t.problems.par_iter().map(|p| solve(&t, p, cell_mm, ctl)).collect();
+        let solved: Result<Vec<Solved>> = t
+            .problems
+            .par_iter()
+            .map(|p| solve(&t, p, cell_mm, ctl))
+            .collect();
         let closed = assembler.apply(&t, solved?)?;
         stats.busy += start.elapsed();
         for r in closed {

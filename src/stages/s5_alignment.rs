@@ -21,7 +21,10 @@ pub fn align(region: &mut Region) {
 }
 
 pub fn run(input: Receiver<Region>, out: Sender<Region>, ctl: &Control) -> Result<StageStats> {
-    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut stats = StageStats {
+        stage: STAGE,
+        ..Default::default()
+    };
     for mut region in input.iter() {
         ctl.check()?;
         let t = Instant::now();

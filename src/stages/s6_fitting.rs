@@ -39,14 +39,25 @@ pub fn describe(region: &Region) -> String {
     let slices: Vec<usize> = region
         .curves
         .iter()
-        .filter_map(|c| match c.origin {
-            Contour { slice, .. } | Cap { slice } => Some(slice),
-            Intermediate { below, .. } => Some(below),
+        .map(|c| match c.origin {
+            Contour { slice, .. } | Cap { slice } => slice,
+            Intermediate { below, .. } => below,
         })
         .collect();
-    let (lo, hi) = (slices.iter().min().copied().unwrap_or(0), slices.iter().max().copied().unwrap_or(0));
-    let wall = if region.hole { "hole wall" } else { "outer wall" };
-    format!("region {} ({wall}, slices {lo}–{hi}, {} curves)", region.id, region.curves.len())
+    let (lo, hi) = (
+        slices.iter().min().copied().unwrap_or(0),
+        slices.iter().max().copied().unwrap_or(0),
+    );
+    let wall = if region.hole {
+        "hole wall"
+    } else {
+        "outer wall"
+    };
+    format!(
+        "region {} ({wall}, slices {lo}–{hi}, {} curves)",
+        region.id,
+        region.curves.len()
+    )
 }
 
 pub fn run(
@@ -56,7 +67,10 @@ pub fn run(
     out: Sender<FittedRegion>,
     ctl: &Control,
 ) -> Result<StageStats> {
-    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut stats = StageStats {
+        stage: STAGE,
+        ..Default::default()
+    };
     let mut regions = Vec::with_capacity(batch);
     while let Ok(first) = input.recv() {
         ctl.check()?;
@@ -68,7 +82,10 @@ pub fn run(
             }
         }
         let t = Instant::now();
-        let fitted: Vec<Result<FittedRegion>> = regions.drain(..).collect::<Vec<_>>().into_par_iter().map(|r| fit(r, opts)).collect();
+        let fitted: Vec<Result<FittedRegion>> = std::mem::take(&mut regions)
+            .into_par_iter()
+            .map(|r| fit(r, opts))
+            .collect();
         stats.busy += t.elapsed();
         for f in fitted {
             stats.items += 1;

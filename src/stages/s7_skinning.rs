@@ -81,7 +81,10 @@ pub fn run(
     out: Sender<Surface>,
     ctl: &Control,
 ) -> Result<StageStats> {
-    let mut stats = StageStats { stage: STAGE, ..Default::default() };
+    let mut stats = StageStats {
+        stage: STAGE,
+        ..Default::default()
+    };
     for fitted in input.iter() {
         ctl.check()?;
         let t = Instant::now();

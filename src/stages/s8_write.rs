@@ -30,7 +30,10 @@ pub struct Written {
 }
 
 fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
-    move |e| Error::Output { path: path.to_path_buf(), source: e }
+    move |e| Error::Output {
+        path: path.to_path_buf(),
+        source: e,
+    }
 }
 
 pub fn summarise(s: &Surface, tolerance: f64, triangles: usize) -> SurfaceReport {
@@ -47,9 +50,15 @@ pub fn summarise(s: &Surface, tolerance: f64, triangles: usize) -> SurfaceReport
         id: s.region.id,
         kind: if s.region.hole { "hole" } else { "outer" },
         control_points: [s.surface.n_u(), s.surface.n_v()],
-        knots: [s.surface.u_knots().extended().len(), s.surface.v_knots().knots().len()],
+        knots: [
+            s.surface.u_knots().extended().len(),
+            s.surface.v_knots().knots().len(),
+        ],
         curves: s.region.curves.len(),
-        slices: [slices.iter().min().copied().unwrap_or(0), slices.iter().max().copied().unwrap_or(0)],
+        slices: [
+            slices.iter().min().copied().unwrap_or(0),
+            slices.iter().max().copied().unwrap_or(0),
+        ],
         input_points: s.error.points,
         max_error_mm: s.error.max_mm,
         mean_error_mm: s.error.mean_mm,
@@ -68,10 +77,20 @@ pub fn run(
     samples_per_span: usize,
     ctl: &Control,
 ) -> Result<Written> {
-    let mut written = Written { stats: StageStats { stage: STAGE, ..Default::default() }, ..Default::default() };
+    let mut written = Written {
+        stats: StageStats {
+            stage: STAGE,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     let mesh_path = out_dir.join(MESH_FILE);
     let err = output_error(&mesh_path);
-    let mut stl = StlWriter::new(AtomicFile::create(&mesh_path)?, "bskin mesh, patient LPS mm").map_err(&err)?;
+    let mut stl = StlWriter::new(
+        AtomicFile::create(&mesh_path)?,
+        "bskin mesh, patient LPS mm",
+    )
+    .map_err(&err)?;
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
@@ -89,9 +108,14 @@ pub fn run(
 }
 
 pub fn file_report(path: &Path) -> Result<FileReport> {
-    let bytes = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+    let bytes = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
     Ok(FileReport {
-        name: path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        name: path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
         bytes,
     })
 }
@@ -101,8 +125,14 @@ pub fn write_report(out_dir: &Path, report: &Report) -> Result<PathBuf> {
     use std::io::Write;
     let path = out_dir.join(REPORT_FILE);
     let mut f = AtomicFile::create(&path)?;
-    serde_json::to_writer_pretty(&mut f, report).map_err(|e| Error::Output { path: path.clone(), source: e.into() })?;
-    f.write_all(b"\n").map_err(|e| Error::Output { path: path.clone(), source: e })?;
+    serde_json::to_writer_pretty(&mut f, report).map_err(|e| Error::Output {
+        path: path.clone(),
+        source: e.into(),
+    })?;
+    f.write_all(b"\n").map_err(|e| Error::Output {
+        path: path.clone(),
+        source: e,
+    })?;
     f.commit()?;
     Ok(path)
 }
