@@ -56,6 +56,17 @@ impl Default for WriteOptions {
     }
 }
 
+impl WriteOptions {
+    /// Options for a phantom: description "bskin phantom <shape>", the phantom's seed.
+    pub fn for_phantom(spec: &crate::phantom::PhantomSpec) -> Self {
+        WriteOptions {
+            seed: spec.seed,
+            description: format!("bskin phantom {}", spec.shape),
+            ..WriteOptions::default()
+        }
+    }
+}
+
 /// Writes `slices` as a CT series in `dir` (created if missing); returns the paths, in slice
 /// order.
 pub fn write_ct_series(
