@@ -138,7 +138,10 @@ impl PhantomSpec {
             };
             h += g * self.slice_spacing;
         }
-        let mid = (z[0] + z[z.len() - 1]) / 2.0;
+        let (Some(first), Some(last)) = (z.first(), z.last()) else {
+            return z;
+        };
+        let mid = (first + last) / 2.0;
         z.iter().map(|v| round_um(v - mid)).collect()
     }
 
