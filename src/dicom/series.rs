@@ -592,7 +592,7 @@ fn sort_and_check(s: &mut Series, mut cand: Vec<SliceHeader>) {
         ));
     }
     if kept.len() >= 2 {
-        let mut gaps: Vec<f64> = kept.windows(2).map(|w| w[1].height - w[0].height).collect();
+        let gaps: Vec<f64> = kept.windows(2).map(|w| w[1].height - w[0].height).collect();
         // Angle between each step and the normal: in-plane shift over height step.
         let mut angles: Vec<f64> = kept
             .windows(2)
@@ -646,7 +646,6 @@ fn sort_and_check(s: &mut Series, mut cand: Vec<SliceHeader>) {
             }
             s.problems.push(m);
         }
-        gaps.clear();
     }
     s.slices = kept;
 }
