@@ -11,9 +11,10 @@
 //!
 //! Transfer syntaxes tested against uncompressed references (tests/dicom_transcoded.rs,
 //! tests/dicom_codecs.rs): implicit/explicit VR LE, explicit VR BE, deflated, RLE, JPEG lossless
-//! (process 14, SV1), JPEG baseline 8-bit, JPEG-LS lossless and near-lossless (system CharLS),
-//! JPEG 2000 lossless and lossy (pure-Rust openjp2). Not decodable: 12-bit lossy JPEG (process
-//! 4; jpeg-decoder has no 12-bit DCT) — the error says so and how to convert.
+//! (process 14, SV1), JPEG-LS lossless and near-lossless (system CharLS: libcharls must be
+//! installed to build), JPEG 2000 lossless and lossy (pure-Rust openjp2). Not decodable: 12-bit
+//! lossy JPEG (process 4; jpeg-decoder has no 12-bit DCT) — the error says so and how to
+//! convert; and the NEMA MR1_JLSL stream, which CharLS rejects.
 
 use dicom_dictionary_std::tags;
 use dicom_object::InMemDicomObject;
