@@ -229,3 +229,44 @@ fn localizer_is_not_volumetric() {
         .to_string();
     assert!(m.contains("1 localizer(s) skipped"), "{m}");
 }
+
+#[test]
+fn localizer_inside_an_axial_series_is_dropped_with_a_note() {
+    let tmp = tempfile::tempdir().unwrap();
+    let paths = phantom(tmp.path(), 13, 1);
+    edit(&paths[0], |o| {
+        o.put(DataElement::new(
+            tags::IMAGE_TYPE,
+            VR::CS,
+            PrimitiveValue::from("ORIGINAL\\PRIMARY\\LOCALIZER"),
+        ));
+        o.put(DataElement::new(
+            tags::IMAGE_ORIENTATION_PATIENT,
+            VR::DS,
+            PrimitiveValue::from("1\\0\\0\\0\\0\\-1"),
+        ));
+    });
+    let sc = scan(tmp.path()).unwrap();
+    let s = select_series(&sc, None, tmp.path()).unwrap();
+    assert_eq!(s.slices.len(), 5);
+    assert!(
+        s.problems
+            .iter()
+            .any(|p| p.contains("1 localizer image(s)")),
+        "{:?}",
+        s.problems
+    );
+    assert!(sc.summary().contains("5 slice(s)"), "{}", sc.summary());
+}
+
+#[test]
+fn write_options_for_phantom_name_the_shape() {
+    let spec = PhantomSpec {
+        shape: Shape::TorusStanding,
+        seed: 9,
+        ..PhantomSpec::default()
+    };
+    let o = WriteOptions::for_phantom(&spec);
+    assert_eq!(o.description, "bskin phantom torus-standing");
+    assert_eq!(o.seed, 9);
+}

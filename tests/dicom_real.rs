@@ -70,7 +70,9 @@ fn philips_skull_phantom() {
     let Some(dir) = shared("ct/philips-skull-phantom-1mm") else {
         return;
     };
+    let t = Instant::now();
     let sc = scan(&dir).unwrap();
+    eprintln!("scan {}: {:.2} s", dir.display(), t.elapsed().as_secs_f64());
     assert_eq!(
         sc.series.len(),
         1,
@@ -95,7 +97,9 @@ fn ge_head_tilt_and_variable_spacing() {
     let Some(dir) = shared("ct/ge-human-head-tilt-variable-spacing") else {
         return;
     };
+    let t = Instant::now();
     let sc = scan(&dir).unwrap();
+    eprintln!("scan {}: {:.2} s", dir.display(), t.elapsed().as_secs_f64());
     let s = select_series(&sc, None, &dir).unwrap();
     assert_eq!(s.slices.len(), 28);
     assert_sorted(s);
@@ -122,7 +126,9 @@ fn siemens_abdomen_empty_uids_j2k() {
     let Some(dir) = shared("ct/siemens-abdomen-20-j2k-empty-uids") else {
         return;
     };
+    let t = Instant::now();
     let sc = scan(&dir).unwrap();
+    eprintln!("scan {}: {:.2} s", dir.display(), t.elapsed().as_secs_f64());
     assert_eq!(sc.series.len(), 1);
     let s = select_series(&sc, None, &dir).unwrap();
     assert_eq!(s.uid, None);
@@ -148,7 +154,9 @@ fn whole_ct_folder_is_ambiguous_and_lists_series() {
     let Some(dir) = shared("ct") else {
         return;
     };
+    let t = Instant::now();
     let sc = scan(&dir).unwrap();
+    eprintln!("scan {}: {:.2} s", dir.display(), t.elapsed().as_secs_f64());
     assert_eq!(sc.series.len(), 3);
     let e = select_series(&sc, None, &dir).unwrap_err();
     let m = e.to_string();

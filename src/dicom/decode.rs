@@ -8,6 +8,13 @@
 //! PixelPaddingRangeLimit) become `f32::MIN` so that no threshold selects them.
 //!
 //! Errors name the file and, for multi-frame files, the frame.
+//!
+//! Transfer syntaxes tested against uncompressed references (tests/dicom_transcoded.rs,
+//! tests/dicom_codecs.rs): implicit/explicit VR LE, explicit VR BE, deflated, RLE, JPEG lossless
+//! (process 14, SV1), JPEG-LS lossless and near-lossless (system CharLS: libcharls must be
+//! installed to build), JPEG 2000 lossless and lossy (pure-Rust openjp2). Not decodable: 12-bit
+//! lossy JPEG (process 4; jpeg-decoder has no 12-bit DCT) — the error says so and how to
+//! convert; and the NEMA MR1_JLSL stream, which CharLS rejects.
 
 use dicom_dictionary_std::tags;
 use dicom_object::InMemDicomObject;

@@ -72,6 +72,36 @@ pub(crate) struct RawFile {
     pub errors: Vec<String>,
 }
 
+impl Scan {
+    /// A few lines for a person: counts, then one line per series with its problems.
+    pub fn summary(&self) -> String {
+        let mut s = format!(
+            "{} file(s): {} series, {} not DICOM, {} non-image DICOM, {} unreadable",
+            self.files,
+            self.series.len(),
+            self.not_dicom,
+            self.non_image.len(),
+            self.unreadable.len()
+        );
+        for se in &self.series {
+            s.push_str(&format!("\n  {}", se.summary()));
+            for p in &se.problems {
+                s.push_str(&format!("\n    warning: {p}"));
+            }
+            for (path, e) in &se.errors {
+                s.push_str(&format!("\n    error: {}: {e}", path.display()));
+            }
+        }
+        for (p, why) in &self.unreadable {
+            s.push_str(&format!("\n  unreadable {}: {why}", p.display()));
+        }
+        for n in &self.notes {
+            s.push_str(&format!("\n  note: {n}"));
+        }
+        s
+    }
+}
+
 enum Outcome {
     Image(Box<RawFile>),
     NotDicom,

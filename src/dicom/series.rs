@@ -219,13 +219,7 @@ pub fn select_series<'a>(scan: &'a Scan, selector: Option<&str>, dir: &Path) -> 
                 1 => vol[0],
                 0 => {
                     let loc = scan.series.iter().filter(|s| s.localizer).count();
-                    let short = scan.series.len()
-                        - loc
-                        - scan
-                            .series
-                            .iter()
-                            .filter(|s| !s.localizer && s.is_volumetric())
-                            .count();
+                    let short = scan.series.len() - loc;
                     return Err(Error::NoSeries {
                         path: dir.to_path_buf(),
                         message: format!(
@@ -346,11 +340,27 @@ fn build(key: String, files: Vec<RawFile>) -> Series {
     // Per-frame candidates, validated one by one; the series geometry is then the most common
     // one (ties: the first met), so the error names the odd file out, not the first file.
     let mut valid: Vec<(PathBuf, String, SliceHeader)> = Vec::new();
+    // A localizer filed under the same UID as an axial stack (some scanners do) would make the
+    // stack look inconsistent: drop it with a note. A series of localizers only stays one.
+    let is_loc = |f: &RawFile| f.image_type.iter().any(|t| t == "LOCALIZER");
+    let n_loc = files.iter().filter(|f| is_loc(f)).count();
+    if n_loc == files.len() {
+        s.localizer = true;
+    } else if n_loc > 0 {
+        let first = files
+            .iter()
+            .find(|f| is_loc(f))
+            .map(|f| f.path.display().to_string());
+        s.problems.push(format!(
+            "{n_loc} localizer image(s) in this series ignored (e.g. {})",
+            first.unwrap_or_default()
+        ));
+    }
     for f in &files {
-        s.transfer_syntaxes.insert(ts_name(&f.ts_uid));
-        if f.image_type.iter().any(|t| t == "LOCALIZER") {
-            s.localizer = true;
+        if !s.localizer && is_loc(f) {
+            continue;
         }
+        s.transfer_syntaxes.insert(ts_name(&f.ts_uid));
         for e in &f.errors {
             s.errors.push((f.path.clone(), e.clone()));
         }
@@ -582,7 +592,7 @@ fn sort_and_check(s: &mut Series, mut cand: Vec<SliceHeader>) {
         ));
     }
     if kept.len() >= 2 {
-        let mut gaps: Vec<f64> = kept.windows(2).map(|w| w[1].height - w[0].height).collect();
+        let gaps: Vec<f64> = kept.windows(2).map(|w| w[1].height - w[0].height).collect();
         // Angle between each step and the normal: in-plane shift over height step.
         let mut angles: Vec<f64> = kept
             .windows(2)
@@ -636,7 +646,6 @@ fn sort_and_check(s: &mut Series, mut cand: Vec<SliceHeader>) {
             }
             s.problems.push(m);
         }
-        gaps.clear();
     }
     s.slices = kept;
 }

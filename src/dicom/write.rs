@@ -56,6 +56,17 @@ impl Default for WriteOptions {
     }
 }
 
+impl WriteOptions {
+    /// Options for a phantom: description "bskin phantom <shape>", the phantom's seed.
+    pub fn for_phantom(spec: &crate::phantom::PhantomSpec) -> Self {
+        WriteOptions {
+            seed: spec.seed,
+            description: format!("bskin phantom {}", spec.shape),
+            ..WriteOptions::default()
+        }
+    }
+}
+
 /// Writes `slices` as a CT series in `dir` (created if missing); returns the paths, in slice
 /// order.
 pub fn write_ct_series(
@@ -295,7 +306,7 @@ mod tests {
             123.456789,
             1.0 / 3.0,
             -1e-7,
-            12345678.123456789,
+            1.0e7 + 1.0 / 7.0,
         ] {
             let s = fmt_ds(v);
             assert!(s.len() <= 16, "{s}");

@@ -7,7 +7,10 @@
 //! Invariants:
 //! - pixel value = round(600 · f + noise), f = fraction of the pixel inside the shape, estimated
 //!   on an `n × n` supersampling grid (`supersample`, default 4); object 600 HU, background 0 HU,
-//!   so the default 300 HU threshold is the 50 %-coverage iso-surface;
+//!   so the default 300 HU threshold is the 50 %-coverage iso-surface. Noise-free, the 300 HU
+//!   crossing found by linear interpolation between pixel centres (marching squares) lies within
+//!   ≈ 0.09 pixel of the analytic surface: the bias of interpolating a box-filtered step, not a
+//!   sampling error (tested: 0.067 mm for 0.8 mm pixels, n = 4 and n = 16 alike);
 //! - values are whole numbers (stored exactly as int16 by the writer), so a noise-free phantom
 //!   round-trips through DICOM exactly;
 //! - slice origins are rounded to 1 µm so that they survive DICOM's 16-character decimal strings
@@ -138,7 +141,10 @@ impl PhantomSpec {
             };
             h += g * self.slice_spacing;
         }
-        let mid = (z[0] + z[z.len() - 1]) / 2.0;
+        let (Some(first), Some(last)) = (z.first(), z.last()) else {
+            return z;
+        };
+        let mid = (first + last) / 2.0;
         z.iter().map(|v| round_um(v - mid)).collect()
     }
 
@@ -312,6 +318,48 @@ mod tests {
             let dy = w[1].origin[1] - w[0].origin[1];
             let dz = w[1].origin[2] - w[0].origin[2];
             assert!((dy / dz - t).abs() < 1e-5);
+        }
+    }
+
+    /// 300 HU crossings along the pixel row through y = 0 of the flat torus' mid slice,
+    /// interpolated linearly between pixel centres.
+    fn crossings(supersample: usize) -> Vec<f64> {
+        let spec = PhantomSpec {
+            shape: Shape::TorusFlat,
+            rows: 129,
+            cols: 129,
+            slices: 1,
+            noise_sd_hu: 0.0,
+            supersample,
+            ..PhantomSpec::default()
+        };
+        let vol = generate(&spec).unwrap();
+        let img = &vol.slices[0];
+        assert_eq!(img.frame.origin[1] + 64.0 * 0.8, 0.0);
+        let row = &img.hu[64 * 129..65 * 129];
+        let x = |c: usize| img.frame.origin[0] + c as f64 * 0.8;
+        let mut out = Vec::new();
+        for c in 0..128 {
+            let (a, b) = (row[c] as f64 - 300.0, row[c + 1] as f64 - 300.0);
+            if a.signum() != b.signum() {
+                out.push(x(c) + 0.8 * a / (a - b));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn threshold_300_crosses_at_the_surface() {
+        // The mid slice is an annulus with radii 17 and 35 mm. Linear interpolation between
+        // pixel centres of a box-filtered step is biased by up to max_f (½ − f)·f / (1 − f)
+        // ≈ 0.086 pixel (0.069 mm here), whatever the supersampling.
+        let want = [-35.0, -17.0, 17.0, 35.0];
+        for (n, tol) in [(4, 0.075), (16, 0.075)] {
+            let got = crossings(n);
+            assert_eq!(got.len(), 4, "{got:?}");
+            for (g, w) in got.iter().zip(want) {
+                assert!((g - w).abs() < tol, "supersample {n}: crossing {g} vs {w}");
+            }
         }
     }
 
