@@ -402,11 +402,7 @@ fn make_phantom(args: PhantomArgs, quiet: bool) -> Result<()> {
         ..Default::default()
     };
     let volume = phantom::generate(&spec)?;
-    let options = dicom::WriteOptions {
-        seed: args.seed,
-        description: format!("bskin phantom {}", shape.name()),
-        ..Default::default()
-    };
+    let options = dicom::WriteOptions::for_phantom(&spec);
     let paths = dicom::write_ct_series(&args.output, &volume.slices, &options)?;
     if !quiet {
         eprintln!(

@@ -24,7 +24,13 @@ pub fn run_dir(series_dir: &Path, out: &Path, config: &RunConfig) -> bskin::Resu
     let scan = dicom::scan(series_dir)?;
     let series = dicom::select_series(&scan, None, series_dir)?.clone();
     std::fs::create_dir_all(out).unwrap();
-    run_surfaces(RunInput::Images(&series), config, out, &Control::new(), &|_| {})
+    run_surfaces(
+        RunInput::Images(&series),
+        config,
+        out,
+        &Control::new(),
+        &|_| {},
+    )
 }
 
 /// Triangles of a binary STL.
@@ -35,7 +41,9 @@ pub fn read_stl(path: &Path) -> Vec<[[f64; 3]; 3]> {
     (0..n)
         .map(|t| {
             let base = 84 + 50 * t + 12;
-            let f = |k: usize| f32::from_le_bytes(b[base + 4 * k..base + 4 * k + 4].try_into().unwrap()) as f64;
+            let f = |k: usize| {
+                f32::from_le_bytes(b[base + 4 * k..base + 4 * k + 4].try_into().unwrap()) as f64
+            };
             [[f(0), f(1), f(2)], [f(3), f(4), f(5)], [f(6), f(7), f(8)]]
         })
         .collect()
@@ -63,7 +71,8 @@ pub fn point_triangle(p: [f64; 3], t: &[[f64; 3]; 3]) -> f64 {
         let vc = d1 * d4 - d3 * d2;
         let vb = d5 * d2 - d1 * d6;
         let va = d3 * d6 - d5 * d4;
-        let lerp = |o: [f64; 3], d: [f64; 3], s: f64| [o[0] + s * d[0], o[1] + s * d[1], o[2] + s * d[2]];
+        let lerp =
+            |o: [f64; 3], d: [f64; 3], s: f64| [o[0] + s * d[0], o[1] + s * d[1], o[2] + s * d[2]];
         if d3 >= 0.0 && d4 <= d3 {
             b
         } else if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
@@ -77,7 +86,11 @@ pub fn point_triangle(p: [f64; 3], t: &[[f64; 3]; 3]) -> f64 {
         } else {
             let denom = 1.0 / (va + vb + vc);
             let (v, w) = (vb * denom, vc * denom);
-            [a[0] + ab[0] * v + ac[0] * w, a[1] + ab[1] * v + ac[1] * w, a[2] + ab[2] * v + ac[2] * w]
+            [
+                a[0] + ab[0] * v + ac[0] * w,
+                a[1] + ab[1] * v + ac[1] * w,
+                a[2] + ab[2] * v + ac[2] * w,
+            ]
         }
     };
     let d = sub(p, closest);
@@ -94,7 +107,10 @@ pub fn truth_points(shape: Shape, z_lo: f64, z_hi: f64, z_step: f64, cell: f64) 
     let mut z = z_lo;
     while z <= z_hi {
         let field: Vec<f32> = (0..n * n)
-            .map(|k| -shape.signed_distance([x0 + (k % n) as f64 * cell, x0 + (k / n) as f64 * cell, z]) as f32)
+            .map(|k| {
+                -shape.signed_distance([x0 + (k % n) as f64 * cell, x0 + (k / n) as f64 * cell, z])
+                    as f32
+            })
             .collect();
         for lp in iso_loops(&field, n, n, 0.0) {
             out.extend(lp.iter().map(|p| [x0 + p[0] * cell, x0 + p[1] * cell, z]));
@@ -109,6 +125,10 @@ pub fn max_distance_to_mesh(points: &[[f64; 3]], tris: &[[[f64; 3]; 3]]) -> f64 
     use rayon::prelude::*;
     points
         .par_iter()
-        .map(|&p| tris.iter().map(|t| point_triangle(p, t)).fold(f64::INFINITY, f64::min))
+        .map(|&p| {
+            tris.iter()
+                .map(|t| point_triangle(p, t))
+                .fold(f64::INFINITY, f64::min)
+        })
         .reduce(|| 0.0, f64::max)
 }
