@@ -65,6 +65,10 @@ pub enum Error {
         source: crate::geometry::GeometryError,
     },
 
+    /// A command-line value that cannot be used (exit code 2, like clap's own errors).
+    #[error("{option}: {message}")]
+    Usage { option: String, message: String },
+
     /// A bug: something the code should have prevented (a panicking stage, say).
     #[error("internal error: {0}")]
     Internal(String),
@@ -79,6 +83,13 @@ impl Error {
         Error::Io {
             path: path.into(),
             source,
+        }
+    }
+
+    pub fn usage(option: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Usage {
+            option: option.into(),
+            message: message.into(),
         }
     }
 

@@ -23,6 +23,7 @@ impl ExitCode {
                 ExitCode::Success
             }
             Error::Output { .. } => ExitCode::OutputError,
+            Error::Usage { .. } => ExitCode::Usage,
             _ => ExitCode::InputError,
         }
     }

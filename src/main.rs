@@ -102,7 +102,7 @@ fn contour_options(a: &SegmentationArgs) -> Result<ContourOptions> {
     };
     if let Threshold::Above(t) = threshold {
         if !t.is_finite() {
-            return Err(Error::bad_input(
+            return Err(Error::usage(
                 "--threshold",
                 format!("{t} is not a finite HU value"),
             ));
@@ -113,7 +113,7 @@ fn contour_options(a: &SegmentationArgs) -> Result<ContourOptions> {
         ("--compress-tol", a.compress_tol),
     ] {
         if !(v.is_finite() && v >= 0.0) {
-            return Err(Error::bad_input(
+            return Err(Error::usage(
                 name,
                 format!("must be a finite number ≥ 0, got {v}"),
             ));
@@ -243,7 +243,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let started = Instant::now();
     let opts = contour_options(&args.segmentation)?;
     if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
-        return Err(Error::bad_input(
+        return Err(Error::usage(
             "--tolerance",
             format!("must be a positive number of mm, got {}", args.tolerance),
         ));
@@ -253,7 +253,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     config.pipeline.channel_depth = args.pipeline.channel_depth.max(1);
     if let Some(c) = args.cell {
         if !(c.is_finite() && c > 0.0) {
-            return Err(Error::bad_input(
+            return Err(Error::usage(
                 "--cell",
                 format!("must be a positive number of mm, got {c}"),
             ));
@@ -379,7 +379,7 @@ fn info(args: InfoArgs) -> Result<()> {
 
 fn make_phantom(args: PhantomArgs, quiet: bool) -> Result<()> {
     let shape = Shape::from_name(&args.shape).ok_or_else(|| {
-        Error::bad_input(
+        Error::usage(
             "<shape>",
             format!(
                 "unknown shape {:?}; choose one of: {}",

@@ -132,3 +132,53 @@ pub fn max_distance_to_mesh(points: &[[f64; 3]], tris: &[[[f64; 3]; 3]]) -> f64 
         })
         .reduce(|| 0.0, f64::max)
 }
+
+/// Slice images held in memory: a source for tests that build their own pixels.
+pub struct VecImages(pub Vec<bskin::SliceImage>);
+
+impl bskin::stages::s1_load::SliceImages for VecImages {
+    fn count(&self) -> usize {
+        self.0.len()
+    }
+    fn load(&self, index: usize) -> bskin::Result<bskin::SliceImage> {
+        Ok(self.0[index].clone())
+    }
+}
+
+/// `n` axial slices of `size`² pixels (1 mm), 1 mm apart, with pixels from `f(slice, x, y)`.
+pub fn synthetic(n: usize, size: usize, f: impl Fn(usize, f64, f64) -> f32) -> VecImages {
+    VecImages(
+        (0..n)
+            .map(|k| bskin::SliceImage {
+                index: k,
+                frame: bskin::SliceFrame {
+                    origin: [0.0, 0.0, k as f64],
+                    row: [1.0, 0.0, 0.0],
+                    col: [0.0, 1.0, 0.0],
+                },
+                source: bskin::section::SliceSource {
+                    path: format!("synthetic/{k}").into(),
+                    frame: None,
+                },
+                rows: size,
+                cols: size,
+                spacing: [1.0, 1.0],
+                hu: (0..size * size)
+                    .map(|i| f(k, (i % size) as f64, (i / size) as f64))
+                    .collect(),
+            })
+            .collect(),
+    )
+}
+
+/// Runs the whole pipeline on in-memory images.
+pub fn run_images(images: &VecImages, out: &Path, config: &RunConfig) -> bskin::Result<RunSummary> {
+    std::fs::create_dir_all(out).unwrap();
+    run_surfaces(
+        RunInput::Images(images),
+        config,
+        out,
+        &Control::new(),
+        &|_| {},
+    )
+}

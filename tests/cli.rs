@@ -1,0 +1,157 @@
+//! The `bskin` binary end to end: exit codes, error messages that name the file, outputs that
+//! never exist half-written, and bytes that do not depend on the thread count.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn bskin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bskin"))
+        .args(args)
+        .output()
+        .expect("run bskin")
+}
+
+fn testdata() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/tube-split")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn missing_directory_is_an_input_error_naming_it() {
+    let o = bskin(&["run", "/nonexistent/series", "-o", "/tmp/bskin-never"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("/nonexistent/series"), "{}", stderr(&o));
+}
+
+#[test]
+fn directory_without_dicom_says_what_it_found() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("notes.txt"), "not an image").unwrap();
+    std::fs::write(tmp.path().join("data.bin"), [0u8; 300]).unwrap();
+    let o = bskin(&["contours", tmp.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("2 file(s) that are not DICOM") && e.contains(tmp.path().to_str().unwrap()),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_arguments_are_usage_errors() {
+    assert_eq!(bskin(&["run"]).status.code(), Some(2));
+    assert_eq!(
+        bskin(&["contours", "x", "--range", "5:1"]).status.code(),
+        Some(2)
+    );
+    let o = bskin(&[
+        "run",
+        testdata().to_str().unwrap(),
+        "-o",
+        "/tmp/x",
+        "--tolerance",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--tolerance"));
+}
+
+#[test]
+fn unwritable_output_is_exit_3_and_leaves_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let blocker = tmp.path().join("file");
+    std::fs::write(&blocker, "").unwrap();
+    // A directory cannot be created under a regular file.
+    let out = blocker.join("out");
+    let o = bskin(&[
+        "run",
+        testdata().to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let o = bskin(&[
+        "contours",
+        testdata().to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn closed_stdout_is_not_an_error() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
+        .args(["contours", testdata().to_str().unwrap(), "-q"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader goes away at once, like `| head -0`
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+}
+
+#[test]
+fn contours_and_surfaces_are_identical_whatever_the_thread_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = testdata();
+    let mut ndjson = Vec::new();
+    let mut meshes = Vec::new();
+    let mut reports = Vec::new();
+    for threads in ["1", "2", "3"] {
+        let c = bskin(&[
+            "--threads",
+            threads,
+            "contours",
+            dir.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(c.status.success(), "{}", stderr(&c));
+        ndjson.push(c.stdout);
+        let out = tmp.path().join(threads);
+        let r = bskin(&[
+            "--threads",
+            threads,
+            "run",
+            dir.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(r.status.success(), "{}", stderr(&r));
+        meshes.push(std::fs::read(out.join("mesh.stl")).unwrap());
+        let mut report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+        // Timing and memory are measurements of the run, not results.
+        report.as_object_mut().unwrap().remove("timings");
+        report.as_object_mut().unwrap().remove("peak_rss_mb");
+        reports.push(report);
+    }
+    assert!(ndjson[0].len() > 10_000);
+    assert!(ndjson.iter().all(|b| b == &ndjson[0]));
+    assert!(meshes.iter().all(|b| b == &meshes[0]));
+    assert!(reports.iter().all(|r| r == &reports[0]));
+    assert_eq!(reports[0]["surfaces_total"], 3);
+    assert_eq!(reports[0]["tolerance_met"], true);
+}
+
+#[test]
+fn info_lists_the_series() {
+    let o = bskin(&["info", testdata().to_str().unwrap()]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("bskin phantom tube-split") && text.contains("61"),
+        "{text}"
+    );
+    let o = bskin(&["info", "--json", testdata().to_str().unwrap()]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["series"][0]["slices"], 61);
+}
