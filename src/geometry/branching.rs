@@ -34,13 +34,15 @@
 
 use rayon::prelude::*;
 
-use super::distance_map::{bbox_of, signed_distance, validate_polygons, Grid};
+use super::distance_map::{
+    bbox_of, nearest_contours, signed_distance, validate_polygons, Grid, NearestContours,
+};
 use super::polygon::{contains, signed_area, Point};
-use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
+use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, world_loops};
 use super::GeometryError;
 
-/// Largest raster used (samples). Peak memory is about 80 bytes per sample (distance
-/// transform buffers plus the two sections' nearest-three fields), so 8 M samples ≈ 650 MB.
+/// Largest raster used (samples). Peak memory is about 100 bytes per sample (two sections'
+/// distance transforms at once plus their nearest-contour fields), so 8 M samples ≈ 800 MB.
 pub const MAX_RASTER_CELLS: usize = 8 << 20;
 
 /// Samples of empty border around the contours' bounding box.
@@ -98,24 +100,6 @@ pub(crate) fn raster_for(
     )))
 }
 
-/// Nearest-three summary of the contours' signed distance fields. Fields are computed a few at
-/// a time in parallel and folded in label order, so memory stays bounded and ties resolve
-/// the same way every run.
-fn nearest(grid: &Grid, contours: &[&[Point]]) -> Nearest {
-    let mut near = Nearest::new(grid.len());
-    let batch = rayon::current_num_threads().max(1);
-    for (b, chunk) in contours.chunks(batch).enumerate() {
-        let fields: Vec<Vec<f32>> = chunk
-            .par_iter()
-            .map(|c| signed_distance(grid, &[c]))
-            .collect();
-        for (k, f) in fields.iter().enumerate() {
-            near.add((b * batch + k) as u32, f);
-        }
-    }
-    near
-}
-
 /// The point of largest distance inside a filled contour (its cap point).
 pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     let sd = signed_distance(grid, &[contour]);
@@ -155,8 +139,10 @@ pub fn intermediate_contours(
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
     let cell = grid.cell_mm;
 
-    let near_lower = nearest(&grid, lower);
-    let near_upper = nearest(&grid, upper);
+    let (near_lower, near_upper) = rayon::join(
+        || nearest_contours(&grid, lower, true),
+        || nearest_contours(&grid, upper, true),
+    );
     // −φ_M: non-negative on the mid-section M. Since the contours of a section are disjoint,
     // the signed distance to their union is the smallest of their signed distances.
     let neg_phi: Vec<f32> = near_lower
@@ -175,7 +161,7 @@ pub fn intermediate_contours(
     }
 
     // Each contour's zone within M, extracted as loops.
-    let jobs: Vec<(&str, usize, &Nearest)> = (0..lower.len())
+    let jobs: Vec<(&str, usize, &NearestContours)> = (0..lower.len())
         .map(|i| ("lower", i, &near_lower))
         .chain((0..upper.len()).map(|i| ("upper", i, &near_upper)))
         .collect();
@@ -187,7 +173,7 @@ pub fn intermediate_contours(
                 return (None, notes);
             }
             let field: Vec<f32> = (0..grid.len())
-                .map(|k| (neg_phi[k] as f64).min(near.neg_psi(i as u32, k)) as f32)
+                .map(|k| (neg_phi[k] as f64).min(neg_psi(near, i as u32, k)) as f32)
                 .collect();
             let loops = world_loops(&grid, &field);
             let (best, count, total) = largest_loop(&loops, true);

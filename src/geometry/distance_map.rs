@@ -23,7 +23,7 @@
 
 use rayon::prelude::*;
 
-use super::polygon::{bbox, point_segment_distance, Point};
+use super::polygon::{bbox, Point};
 use super::GeometryError;
 
 /// Samples closer than this (in cells) to a polygon are seeds of the transform.
@@ -254,9 +254,10 @@ impl<'a> Segments<'a> {
         let (k, i) = self.owner[s];
         let (k, i) = (k as usize, i as usize);
         let n = self.polys[k].len();
+        // Squared distances while walking (no square roots, no hypot), one root at the end.
         let seg = |j: usize| {
             let (a, b) = self.ends(k, j % n);
-            point_segment_distance(x, a, b)
+            segment_distance_sq(x, a, b)
         };
         let start = seg(i);
         let mut best = (start, i);
@@ -275,7 +276,7 @@ impl<'a> Segments<'a> {
                 best = (d, j);
             }
         }
-        (best.0, self.first[k] + best.1)
+        (best.0.sqrt(), self.first[k] + best.1)
     }
 
     /// Whether segments `s` and `t` lie within two steps of each other on one polygon (then
@@ -286,10 +287,44 @@ impl<'a> Segments<'a> {
         if ks != kt {
             return false;
         }
-        let n = self.polys[ks as usize].len() as i64;
-        let diff = (is as i64 - it as i64).rem_euclid(n);
-        diff <= 2 || diff >= n - 2
+        let n = self.polys[ks as usize].len() as u32;
+        let diff = is.abs_diff(it);
+        diff <= 2 || diff + 2 >= n
     }
+}
+
+/// Squared distance from `p` to the segment `a`–`b`.
+#[inline]
+fn segment_distance_sq(p: Point, a: Point, b: Point) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let v = [p[0] - a[0], p[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let t = if len2 > 0.0 {
+        ((v[0] * d[0] + v[1] * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let e = [v[0] - t * d[0], v[1] - t * d[1]];
+    e[0] * e[0] + e[1] * e[1]
+}
+
+/// Whether all samples of the 3 × 3 neighbourhood of `(r, c)` carry the same label.
+#[inline]
+fn uniform(label: &[u32], r: usize, c: usize, w: usize, h: usize) -> bool {
+    let own = label[r * w + c];
+    let (r0, r1) = (r.saturating_sub(1), (r + 1).min(h - 1));
+    let (c0, c1) = (c.saturating_sub(1), (c + 1).min(w - 1));
+    (r0..=r1).all(|nr| label[nr * w + c0..=nr * w + c1].iter().all(|&l| l == own))
+}
+
+/// The 8-neighbourhood of sample `(r, c)` inside a `w × h` raster.
+fn neighbours(r: usize, c: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    let rows = r.saturating_sub(1)..=(r + 1).min(h - 1);
+    rows.flat_map(move |nr| {
+        let cols = c.saturating_sub(1)..=(c + 1).min(w - 1);
+        cols.map(move |nc| (nr, nc))
+    })
+    .filter(move |&(nr, nc)| (nr, nc) != (r, c))
 }
 
 /// One raster sweep of feature propagation: every sample tries the segments of the four
@@ -375,8 +410,15 @@ pub fn bbox_of(polys: &[&[Point]]) -> [f64; 4] {
 /// Unsigned distance (mm) from every sample to the nearest boundary of the polygon set.
 /// Samples are `+∞` only when the set has no segment.
 pub fn unsigned_distance(grid: &Grid, polys: &[&[Point]]) -> Vec<f32> {
-    let (w, h, cell) = (grid.width, grid.height, grid.cell_mm);
     let segs = Segments::new(polys);
+    let (dist, _) = distance_and_segment(grid, &segs);
+    dist.iter().map(|&d| d as f32).collect()
+}
+
+/// Exact distance (mm) from every sample to the set's boundary, and the global index of the
+/// segment realising it (`NO_SITE` when the set has no segment).
+fn distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
+    let (w, h, cell) = (grid.width, grid.height, grid.cell_mm);
     // Seeds: exact squared distance in cell² units, and the segment that realises it.
     let mut f = vec![f64::INFINITY; w * h];
     let mut seg_of = vec![NO_SITE; w * h];
@@ -403,8 +445,7 @@ pub fn unsigned_distance(grid: &Grid, polys: &[&[Point]]) -> Vec<f32> {
             }
             for r in r0..=r1 as usize {
                 for c in c0..=c1 as usize {
-                    let d = point_segment_distance(grid.point(r, c), a, b) / cell;
-                    let d2 = d * d;
+                    let d2 = segment_distance_sq(grid.point(r, c), a, b) / (cell * cell);
                     if d2 < f[r * w + c] {
                         f[r * w + c] = d2;
                         seg_of[r * w + c] = s as u32;
@@ -430,9 +471,156 @@ pub fn unsigned_distance(grid: &Grid, polys: &[&[Point]]) -> Vec<f32> {
                 srow[c] = s as u32;
             }
         });
-    sweep(grid, &segs, &mut dist, &mut seg, true);
-    sweep(grid, &segs, &mut dist, &mut seg, false);
-    dist.iter().map(|&d| d as f32).collect()
+    sweep(grid, segs, &mut dist, &mut seg, true);
+    sweep(grid, segs, &mut dist, &mut seg, false);
+    (dist, seg)
+}
+
+/// For every sample, the distances to the nearest, second and third nearest contours of a set
+/// (each contour a polygon of `polys`), with the labels (indices into `polys`) of the first
+/// two. `min1` is signed (negative inside the nearest contour, even–odd) when `signed`;
+/// `min2`, `min3` are unsigned.
+///
+/// One distance transform for the whole set, not one per contour: the nearest contour comes
+/// with the feature transform, and the second and third are only needed where zones meet,
+/// which is where a sample's 3 × 3 neighbourhood holds other labels; there they are
+/// evaluated exactly from the neighbours' segments. Elsewhere `min2` and `min3` are `+∞`
+/// ("far"). Every grid edge crossed by a bisecting edge has ends of different labels, so
+/// both ends get exact values.
+pub struct NearestContours {
+    pub min1: Vec<f32>,
+    pub label1: Vec<u32>,
+    pub min2: Vec<f32>,
+    pub label2: Vec<u32>,
+    pub min3: Vec<f32>,
+}
+
+pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> NearestContours {
+    let (w, h) = (grid.width, grid.height);
+    let segs = Segments::new(polys);
+    let (dist, seg) = distance_and_segment(grid, &segs);
+    let label_of = |s: u32| {
+        if s == NO_SITE {
+            NO_SITE
+        } else {
+            segs.owner[s as usize].0
+        }
+    };
+    let inside = if signed {
+        inside_mask(grid, polys)
+    } else {
+        Vec::new()
+    };
+    if polys.len() == 1 {
+        // One contour: it is the nearest everywhere, and there is no second.
+        let min1 = dist
+            .iter()
+            .zip(&seg)
+            .enumerate()
+            .map(|(k, (&d, &s))| {
+                let d = if s == NO_SITE { f64::INFINITY } else { d };
+                (if signed && inside[k] { -d } else { d }) as f32
+            })
+            .collect();
+        let label1 = seg
+            .iter()
+            .map(|&s| if s == NO_SITE { NO_SITE } else { 0 })
+            .collect();
+        return NearestContours {
+            min1,
+            label1,
+            min2: vec![f32::INFINITY; w * h],
+            label2: vec![NO_SITE; w * h],
+            min3: vec![f32::INFINITY; w * h],
+        };
+    }
+    let raw_label: Vec<u32> = seg.iter().map(|&s| label_of(s)).collect();
+    // Pass A: a sample's nearest contour may be one its neighbours found (the transform's
+    // choice can differ at exact ties and in rare near-ties); settle it first, so pass B
+    // sees every neighbour's final label.
+    let mut best_d = dist.clone();
+    let mut best_seg = seg.clone();
+    best_d
+        .par_chunks_mut(w)
+        .zip(best_seg.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, (bd, bs))| {
+            for c in 0..w {
+                let k = r * w + c;
+                let own = raw_label[k];
+                if own == NO_SITE || uniform(&raw_label, r, c, w, h) {
+                    continue;
+                }
+                let x = grid.point(r, c);
+                for (nr, nc) in neighbours(r, c, w, h) {
+                    let t = seg[nr * w + nc];
+                    let lt = raw_label[nr * w + nc];
+                    if lt == NO_SITE || lt == own {
+                        continue;
+                    }
+                    let (d, s) = segs.descend(x, t as usize);
+                    // Ties go to the lower label, everywhere alike.
+                    if d < bd[c] || (d == bd[c] && lt < label_of(bs[c])) {
+                        bd[c] = d;
+                        bs[c] = s as u32;
+                    }
+                }
+            }
+        });
+    let best_label: Vec<u32> = best_seg.iter().map(|&s| label_of(s)).collect();
+    let mut out = NearestContours {
+        min1: vec![f32::INFINITY; w * h],
+        label1: vec![NO_SITE; w * h],
+        min2: vec![f32::INFINITY; w * h],
+        label2: vec![NO_SITE; w * h],
+        min3: vec![f32::INFINITY; w * h],
+    };
+    // Pass B: second and third nearest from the neighbours' final segments.
+    out.min1
+        .par_chunks_mut(w)
+        .zip(out.label1.par_chunks_mut(w))
+        .zip(out.min2.par_chunks_mut(w))
+        .zip(out.label2.par_chunks_mut(w))
+        .zip(out.min3.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, ((((m1, l1), m2), l2), m3))| {
+            // (distance, label) candidates: own first, then one per other label nearby.
+            let mut cand: Vec<(f64, u32)> = Vec::with_capacity(9);
+            for c in 0..w {
+                let k = r * w + c;
+                let own = best_label[k];
+                if own == NO_SITE {
+                    continue;
+                }
+                let d1 = best_d[k];
+                m1[c] = if signed && inside[k] { -d1 } else { d1 } as f32;
+                l1[c] = own;
+                if uniform(&best_label, r, c, w, h) {
+                    continue;
+                }
+                cand.clear();
+                cand.push((d1, own));
+                let x = grid.point(r, c);
+                for (nr, nc) in neighbours(r, c, w, h) {
+                    let t = best_seg[nr * w + nc];
+                    let lt = best_label[nr * w + nc];
+                    if lt == NO_SITE || cand.iter().any(|&(_, l)| l == lt) {
+                        continue;
+                    }
+                    cand.push((segs.descend(x, t as usize).0, lt));
+                }
+                // The own entry stays first: it is the nearest by pass A.
+                cand[1..].sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                if let Some(&(d2, lab2)) = cand.get(1) {
+                    m2[c] = d2 as f32;
+                    l2[c] = lab2;
+                }
+                if let Some(&(d3, _)) = cand.get(2) {
+                    m3[c] = d3 as f32;
+                }
+            }
+        });
+    out
 }
 
 /// Inside mask of the polygon set by the even–odd rule, with the same crossing rule as

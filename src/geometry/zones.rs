@@ -2,8 +2,8 @@
 //! to one contour than to the others, bounded by the bisecting edges), extraction of zone
 //! loops at sub-pixel precision, and a compression that keeps shared bisecting edges shared.
 //!
-//! In: per-contour distance fields on one [`Grid`]. Out: the nearest-three summary of those
-//! fields, zone fields whose zero level is the bisecting edge, world-space loops, and
+//! In: the nearest-contours summary of a contour set on one [`Grid`]. Out: zone fields whose
+//! zero level is the bisecting edge, world-space loops, and
 //! compressed loops in which every chain shared by two loops is compressed identically.
 //!
 //! Invariant that makes the shared edges exact: for a sample whose two nearest contours are
@@ -13,83 +13,40 @@
 
 use std::collections::HashMap;
 
-use super::distance_map::Grid;
+use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
 use super::polygon::{is_simple, point_segment_distance, signed_area, Point};
 use super::simplify::simplify_closed;
-
-/// For every sample, the three smallest of the contours' distances, with the contours that
-/// realise the two smallest (ties go to the lower label).
-pub(crate) struct Nearest {
-    pub min1: Vec<f32>,
-    pub label1: Vec<u32>,
-    pub min2: Vec<f32>,
-    pub label2: Vec<u32>,
-    pub min3: Vec<f32>,
-}
-
-pub(crate) const NO_LABEL: u32 = u32::MAX;
 
 /// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
 /// level as inside, so an exact tie between two zones must be inside exactly one of them (and
 /// `−0.0 == 0.0`, so a signed zero would not do). Representable in `f32`.
 const TIE: f64 = 1e-30;
 
-impl Nearest {
-    pub fn new(len: usize) -> Self {
-        Nearest {
-            min1: vec![f32::INFINITY; len],
-            label1: vec![NO_LABEL; len],
-            min2: vec![f32::INFINITY; len],
-            label2: vec![NO_LABEL; len],
-            min3: vec![f32::INFINITY; len],
-        }
-    }
-
-    /// Fold in the distance field of contour `label` (labels must be added in increasing
-    /// order for ties to be deterministic).
-    pub fn add(&mut self, label: u32, d: &[f32]) {
-        for (k, &v) in d.iter().enumerate() {
-            if v < self.min1[k] {
-                self.min3[k] = self.min2[k];
-                self.min2[k] = self.min1[k];
-                self.label2[k] = self.label1[k];
-                self.min1[k] = v;
-                self.label1[k] = label;
-            } else if v < self.min2[k] {
-                self.min3[k] = self.min2[k];
-                self.min2[k] = v;
-                self.label2[k] = label;
-            } else if v < self.min3[k] {
-                self.min3[k] = v;
-            }
-        }
-    }
-
-    /// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
-    /// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the
-    /// two nearest contours, which is where the zone boundary runs except in cells where
-    /// three zones meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used. An exact tie
-    /// goes to the nearest label. A lone contour's zone is everything (`+∞`).
-    pub fn neg_psi(&self, i: u32, k: usize) -> f64 {
-        let (d1, d2) = (self.min1[k] as f64, self.min2[k] as f64);
-        if self.label1[k] == i {
-            let v = d2 - d1;
-            if v == 0.0 {
-                TIE
-            } else {
-                v
-            }
-        } else if self.label2[k] == i {
-            let v = d1 - d2;
-            if v == 0.0 {
-                -TIE
-            } else {
-                v
-            }
+/// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
+/// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the two
+/// nearest contours, which is where the zone boundary runs except in cells where three zones
+/// meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used (`−∞` when no other contour
+/// is near, which marching squares counts as outside). An exact tie goes to the nearer
+/// label. A zone with no neighbour is everything (`+∞`).
+pub(crate) fn neg_psi(near: &NearestContours, i: u32, k: usize) -> f64 {
+    let (d1, d2) = (near.min1[k] as f64, near.min2[k] as f64);
+    if near.label1[k] == i {
+        let v = d2 - d1;
+        if v == 0.0 {
+            TIE
         } else {
-            -(self.min3[k] as f64 - d1).max(TIE)
+            v
         }
+    } else if near.label2[k] == i {
+        let v = d1 - d2;
+        if v == 0.0 {
+            -TIE
+        } else {
+            v
+        }
+    } else {
+        -(near.min3[k] as f64 - d1).max(TIE)
     }
 }
 
