@@ -112,24 +112,52 @@ fn distance_map_matches_brute_force_on_random_stars() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let cell = 0.1;
     let mut worst_cells: f64 = 0.0;
-    for case in 0..4 {
-        let a = star(&mut rng, [0.0, 0.0], 6.0, 60 + 20 * case);
-        let b = star(&mut rng, [14.0, 3.0], 4.0, 40);
+    let (mut worst_noisy, mut samples_noisy, mut above): (f64, usize, usize) = (0.0, 0, 0);
+    for case in 0..6 {
+        let mut a = star(&mut rng, [0.0, 0.0], 6.0, 60 + 20 * case);
+        let mut b = star(&mut rng, [14.0, 3.0], 4.0, 40 + 50 * case);
+        if case >= 3 {
+            // Noisy contours (like compiled CT contours): many local minima of the distance
+            // along the contour. Kept simple, as compiled contours are.
+            for p in a.iter_mut().chain(b.iter_mut()) {
+                p[0] += rng.random_range(-0.04..0.04);
+                p[1] += rng.random_range(-0.04..0.04);
+            }
+            assert!(is_simple(&a) && is_simple(&b));
+        }
         let set: Vec<&[Point]> = vec![&a, &b];
         let grid = Grid::covering([-10.0, -9.0, 21.0, 10.0], cell, 2, 1 << 22).unwrap();
         let d = signed_distance(&grid, &set);
-        for r in 0..grid.height {
-            for c in 0..grid.width {
+        // Every other row and column: brute force is the slow part of this test.
+        for r in (0..grid.height).step_by(2) {
+            for c in (case % 2..grid.width).step_by(2) {
                 let p = grid.point(r, c);
                 let e = union_sd(&set, p);
                 let got = d[r * grid.width + c] as f64;
-                worst_cells = worst_cells.max((got - e).abs() / cell);
+                let err = (got - e).abs() / cell;
+                if case >= 3 {
+                    worst_noisy = worst_noisy.max(err);
+                    samples_noisy += 1;
+                    above += (err > 0.01) as usize;
+                } else {
+                    worst_cells = worst_cells.max(err);
+                }
             }
         }
     }
-    eprintln!("distance map vs brute force: max error {worst_cells:.2e} cell");
+    eprintln!(
+        "distance map vs brute force: smooth stars max error {worst_cells:.2e} cell; noisy \
+         stars max {worst_noisy:.2e} cell, {above} of {samples_noisy} samples above 0.01 cell"
+    );
     // f32 storage alone accounts for ~1e-6 mm at these magnitudes.
     assert!(worst_cells < 1e-3, "max error {worst_cells} cell");
+    // On wiggly contours a few isolated samples deep inside keep a foot point on a
+    // neighbouring wiggle.
+    assert!(worst_noisy < 0.1, "max error {worst_noisy} cell");
+    assert!(
+        above * 1000 < samples_noisy,
+        "{above} samples above 0.01 cell"
+    );
 }
 
 #[test]
