@@ -3,6 +3,17 @@
 
 use std::time::Instant;
 
+/// CPU seconds used by this process so far (user + system, Linux), so the measurement means
+/// something on a machine other builds are loading.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    // Fields 14 and 15 of stat (utime, stime) are 12 and 13 after the command name.
+    (ticks(11) + ticks(12)) / 100.0
+}
+
 use bskin::geometry::branching::{intermediate_contours, Intermediate};
 use bskin::geometry::capping::cap;
 use bskin::geometry::polygon::Point;
@@ -25,9 +36,10 @@ fn one_to_two_over_100_by_60_mm_at_0_05_mm() {
     let cell = 0.05;
     // Warm up rayon's pool so the measurement is the work alone.
     let _ = intermediate_contours(&[&lower], &[&u1, &u2], 1.0).unwrap();
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
     let r = intermediate_contours(&[&lower], &[&u1, &u2], cell).unwrap();
     let el = t.elapsed();
+    let cpu = cpu_seconds() - cpu;
     let pts: Vec<usize> = r
         .lower
         .iter()
@@ -38,21 +50,23 @@ fn one_to_two_over_100_by_60_mm_at_0_05_mm() {
         })
         .collect();
     eprintln!(
-        "1-to-2, 100 × 60 mm at {cell} mm ({} × {} samples): {:.0} ms, loop points {pts:?}, \
-         warnings {:?}",
+        "1-to-2, 100 × 60 mm at {cell} mm ({} × {} samples): {:.0} ms wall, {:.0} ms CPU, \
+         loop points {pts:?}, warnings {:?}",
         (100.0 / cell) as usize + 7,
         (60.0 / cell) as usize + 7,
         el.as_secs_f64() * 1e3,
+        cpu * 1e3,
         r.warnings
     );
     let outer = ellipse(0.0, 0.0, 50.0, 30.0, 2000);
     let mut hole = ellipse(0.0, 0.0, 30.0, 12.0, 1000);
     hole.reverse();
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
     let c = cap(&outer, &[&hole], cell).unwrap();
     eprintln!(
-        "cap of a 100 × 60 mm annulus at {cell} mm: {:.0} ms, warnings {:?}",
+        "cap of a 100 × 60 mm annulus at {cell} mm: {:.0} ms wall, {:.0} ms CPU, warnings {:?}",
         t.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - cpu) * 1e3,
         c.warnings
     );
 }

@@ -165,9 +165,29 @@ fn envelope_1d(f: &[f64], d: &mut [f64], site: &mut [u32], v: &mut Vec<usize>, z
 /// `min over sites s of f(s) + |x − s|²` and the flat index of a minimising site (`f` is `+∞`
 /// where there is no site). Linear time: one envelope pass per column, then one per row.
 pub fn distance_transform(f: &[f64], width: usize, height: usize) -> (Vec<f64>, Vec<u32>) {
+    let feature = feature_transform(f, width, height);
+    let d2 = feature
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            if s == NO_SITE {
+                return f64::INFINITY;
+            }
+            let s = s as usize;
+            let dr = (k / width) as f64 - (s / width) as f64;
+            let dc = (k % width) as f64 - (s % width) as f64;
+            f[s] + dr * dr + dc * dc
+        })
+        .collect();
+    (d2, feature)
+}
+
+/// The minimising site of [`distance_transform`] alone (flat index, `NO_SITE` when `f` has no
+/// finite value), without materialising the distances.
+fn feature_transform(f: &[f64], width: usize, height: usize) -> Vec<u32> {
     let (w, h) = (width, height);
     if f.len() != w * h || w == 0 || h == 0 {
-        return (vec![f64::INFINITY; f.len()], vec![NO_SITE; f.len()]);
+        return vec![NO_SITE; f.len()];
     }
     // Pass 1, along columns, written column-major so pass 2 can split rows freely.
     let mut g_t = vec![0.0f64; w * h];
@@ -185,66 +205,90 @@ pub fn distance_transform(f: &[f64], width: usize, height: usize) -> (Vec<f64>, 
             },
         );
     // Pass 2, along rows.
-    let mut d2 = vec![0.0f64; w * h];
     let mut feature = vec![NO_SITE; w * h];
-    d2.par_chunks_mut(w)
-        .zip(feature.par_chunks_mut(w))
-        .enumerate()
-        .for_each_init(
-            || (vec![0.0; w], vec![0u32; w], Vec::new(), Vec::new()),
-            |(row, cols, v, z), (r, (d, feat))| {
-                for c in 0..w {
-                    row[c] = g_t[c * h + r];
-                }
-                envelope_1d(row, d, cols, v, z);
-                for c in 0..w {
-                    let sc = cols[c];
-                    feat[c] = if sc == NO_SITE {
+    feature.par_chunks_mut(w).enumerate().for_each_init(
+        || {
+            (
+                vec![0.0; w],
+                vec![0.0; w],
+                vec![0u32; w],
+                Vec::new(),
+                Vec::new(),
+            )
+        },
+        |(row, d, cols, v, z), (r, feat)| {
+            for c in 0..w {
+                row[c] = g_t[c * h + r];
+            }
+            envelope_1d(row, d, cols, v, z);
+            for c in 0..w {
+                let sc = cols[c];
+                feat[c] = if sc == NO_SITE {
+                    NO_SITE
+                } else {
+                    let sr = row_t[sc as usize * h + r];
+                    if sr == NO_SITE {
                         NO_SITE
                     } else {
-                        let sr = row_t[sc as usize * h + r];
-                        if sr == NO_SITE {
-                            NO_SITE
-                        } else {
-                            sr * w as u32 + sc
-                        }
-                    };
-                }
-            },
-        );
-    (d2, feature)
+                        sr * w as u32 + sc
+                    }
+                };
+            }
+        },
+    );
+    feature
 }
 
-/// The segments of a polygon set, flattened, with each segment's polygon bounds so its
-/// neighbours along the polygon can be found.
-struct Segments<'a> {
-    polys: &'a [&'a [Point]],
-    /// (polygon, index of its first vertex) for every segment.
-    owner: Vec<(u32, u32)>,
-    /// Global index of each polygon's first segment.
+/// The segments of a polygon set, flattened, with their geometry precomputed for the inner
+/// loops (start, direction, inverse squared length) and each segment's polygon so its
+/// neighbours along the polygon can be found without a division.
+struct Segments {
+    /// Start point, direction `b − a`, and `1 / |b − a|²` (0 for a zero-length segment).
+    geom: Vec<(Point, Point, f64)>,
+    /// Polygon of each segment.
+    poly: Vec<u32>,
+    /// Global index of each polygon's first segment, and one past the last.
     first: Vec<usize>,
 }
 
-impl<'a> Segments<'a> {
-    fn new(polys: &'a [&'a [Point]]) -> Self {
-        let mut owner = Vec::new();
-        let mut first = Vec::with_capacity(polys.len());
+impl Segments {
+    fn new(polys: &[&[Point]]) -> Self {
+        let total: usize = polys.iter().map(|p| p.len()).sum();
+        let mut geom = Vec::with_capacity(total);
+        let mut poly = Vec::with_capacity(total);
+        let mut first = Vec::with_capacity(polys.len() + 1);
         for (k, p) in polys.iter().enumerate() {
-            first.push(owner.len());
+            first.push(geom.len());
             for i in 0..p.len() {
-                owner.push((k as u32, i as u32));
+                let (a, b) = (p[i], p[(i + 1) % p.len()]);
+                let d = [b[0] - a[0], b[1] - a[1]];
+                let len2 = d[0] * d[0] + d[1] * d[1];
+                geom.push((a, d, if len2 > 0.0 { 1.0 / len2 } else { 0.0 }));
+                poly.push(k as u32);
             }
         }
-        Segments {
-            polys,
-            owner,
-            first,
-        }
+        first.push(geom.len());
+        Segments { geom, poly, first }
     }
 
-    fn ends(&self, poly: usize, i: usize) -> (Point, Point) {
-        let p = self.polys[poly];
-        (p[i], p[(i + 1) % p.len()])
+    fn len(&self) -> usize {
+        self.geom.len()
+    }
+
+    /// End points of segment `s`.
+    fn ends(&self, s: usize) -> (Point, Point) {
+        let (a, d, _) = self.geom[s];
+        (a, [a[0] + d[0], a[1] + d[1]])
+    }
+
+    /// Squared distance from `x` to segment `s`.
+    #[inline]
+    fn dist_sq(&self, x: Point, s: usize) -> f64 {
+        let (a, d, inv) = self.geom[s];
+        let v = [x[0] - a[0], x[1] - a[1]];
+        let t = ((v[0] * d[0] + v[1] * d[1]) * inv).clamp(0.0, 1.0);
+        let e = [v[0] - t * d[0], v[1] - t * d[1]];
+        e[0] * e[0] + e[1] * e[1]
     }
 
     /// Exact distance from `x` to the boundary near segment `s`, and the segment realising
@@ -253,21 +297,17 @@ impl<'a> Segments<'a> {
     /// foot point can win the envelope by sitting slightly deeper in the band), but it lies in
     /// the basin of the true foot point, where the distance along the contour is unimodal.
     fn descend(&self, x: Point, s: usize) -> (f64, usize) {
-        let (k, i) = self.owner[s];
-        let (k, i) = (k as usize, i as usize);
-        let n = self.polys[k].len();
-        // Squared distances while walking (no square roots, no hypot), one root at the end.
-        let seg = |j: usize| {
-            let (a, b) = self.ends(k, j % n);
-            segment_distance_sq(x, a, b)
-        };
-        let start = seg(i);
-        let mut best = (start, i);
-        for step in [1, n - 1] {
-            let (mut j, mut d) = (i, start);
-            for _ in 0..n {
-                let nj = (j + step) % n;
-                let nd = seg(nj);
+        let k = self.poly[s] as usize;
+        let (lo, hi) = (self.first[k], self.first[k + 1]);
+        let next = |j: usize| if j + 1 == hi { lo } else { j + 1 };
+        let prev = |j: usize| if j == lo { hi - 1 } else { j - 1 };
+        let start = self.dist_sq(x, s);
+        let mut best = (start, s);
+        for forward in [true, false] {
+            let (mut j, mut d) = (s, start);
+            for _ in lo..hi {
+                let nj = if forward { next(j) } else { prev(j) };
+                let nd = self.dist_sq(x, nj);
                 if nd >= d {
                     break;
                 }
@@ -278,7 +318,7 @@ impl<'a> Segments<'a> {
                 best = (d, j);
             }
         }
-        (best.0.sqrt(), self.first[k] + best.1)
+        (best.0.sqrt(), best.1)
     }
 }
 
@@ -329,20 +369,15 @@ fn sweep(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], forwar
     } else {
         [(0, 1), (1, 1), (1, 0), (1, -1)]
     };
-    let mut try_from = |r: i64, c: i64, nr: i64, nc: i64| {
-        if nr < 0 || nc < 0 || nr >= h || nc >= w {
-            return;
-        }
-        let k = (r * w + c) as usize;
-        let t = seg[(nr * w + nc) as usize];
+    // Try the segment of sample `n` at sample `k` (position `x`): one exact evaluation in
+    // squared distance decides; walk on only from a segment that is nearer.
+    let mut try_from = |k: usize, n: usize, x: Point| {
+        let t = seg[n];
         if t == NO_SITE || t == seg[k] {
             return;
         }
-        // One exact evaluation decides; walk on only from a segment that is nearer.
-        let x = grid.point(r as usize, c as usize);
-        let (ts, ti) = segs.owner[t as usize];
-        let (a, b) = segs.ends(ts as usize, ti as usize);
-        if segment_distance_sq(x, a, b).sqrt() < dist[k] {
+        let d = dist[k];
+        if segs.dist_sq(x, t as usize) < d * d {
             let (d, best) = segs.descend(x, t as usize);
             dist[k] = d;
             seg[k] = best as u32;
@@ -352,15 +387,24 @@ fn sweep(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], forwar
         let r = if forward { rr } else { h - 1 - rr };
         for cc in 0..w {
             let c = if forward { cc } else { w - 1 - cc };
+            let k = (r * w + c) as usize;
+            let x = grid.point(r as usize, c as usize);
             for (or, oc) in first {
-                try_from(r, c, r + or, c + oc);
+                let (nr, nc) = (r + or, c + oc);
+                if nr >= 0 && nc >= 0 && nr < h && nc < w {
+                    try_from(k, (nr * w + nc) as usize, x);
+                }
             }
         }
         // Back along the row against the other side.
+        let oc = if forward { 1 } else { -1 };
         for cc in 0..w {
             let c = if forward { w - 1 - cc } else { cc };
-            let oc = if forward { 1 } else { -1 };
-            try_from(r, c, r, c + oc);
+            let nc = c + oc;
+            if nc >= 0 && nc < w {
+                let x = grid.point(r as usize, c as usize);
+                try_from((r * w + c) as usize, (r * w + nc) as usize, x);
+            }
         }
     }
 }
@@ -424,8 +468,8 @@ fn distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
     let mut f = vec![f64::INFINITY; w * h];
     let mut seg_of = vec![NO_SITE; w * h];
     let band = SEED_BAND_CELLS * cell;
-    for (s, &(k, i)) in segs.owner.iter().enumerate() {
-        let (a, b) = segs.ends(k as usize, i as usize);
+    for s in 0..segs.len() {
+        let (a, b) = segs.ends(s);
         // Long segments are walked in pieces about one cell long, so the visited boxes hug
         // the segment instead of covering its whole bounding box.
         let len = (b[0] - a[0]).hypot(b[1] - a[1]);
@@ -455,7 +499,7 @@ fn distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
             }
         }
     }
-    let (_, feature) = distance_transform(&f, w, h);
+    let feature = feature_transform(&f, w, h);
     let mut dist = vec![f64::INFINITY; w * h];
     let mut seg = vec![NO_SITE; w * h];
     dist.par_chunks_mut(w)
@@ -504,7 +548,7 @@ pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> Neares
         if s == NO_SITE {
             NO_SITE
         } else {
-            segs.owner[s as usize].0
+            segs.poly[s as usize]
         }
     };
     let inside = if signed {
@@ -539,13 +583,12 @@ pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> Neares
     // Pass A: a sample's nearest contour may be one its neighbours found (the transform's
     // choice can differ at exact ties and in rare near-ties); settle it first, so pass B
     // sees every neighbour's final label.
-    let mut best_d = dist.clone();
-    let mut best_seg = seg.clone();
-    best_d
-        .par_chunks_mut(w)
-        .zip(best_seg.par_chunks_mut(w))
-        .enumerate()
-        .for_each(|(r, (bd, bs))| {
+    // Only samples next to another label can change: collect those changes per row, then
+    // apply them (no copy of the whole field).
+    let changes: Vec<Vec<(usize, f64, u32)>> = (0..h)
+        .into_par_iter()
+        .map(|r| {
+            let mut row = Vec::new();
             for c in 0..w {
                 let k = r * w + c;
                 let own = raw_label[k];
@@ -553,6 +596,7 @@ pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> Neares
                     continue;
                 }
                 let x = grid.point(r, c);
+                let (mut bd, mut bs) = (dist[k], seg[k]);
                 for (nr, nc) in neighbours(r, c, w, h) {
                     let t = seg[nr * w + nc];
                     let lt = raw_label[nr * w + nc];
@@ -561,13 +605,23 @@ pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> Neares
                     }
                     let (d, s) = segs.descend(x, t as usize);
                     // Ties go to the lower label, everywhere alike.
-                    if d < bd[c] || (d == bd[c] && lt < label_of(bs[c])) {
-                        bd[c] = d;
-                        bs[c] = s as u32;
+                    if d < bd || (d == bd && lt < label_of(bs)) {
+                        bd = d;
+                        bs = s as u32;
                     }
                 }
+                if bs != seg[k] {
+                    row.push((k, bd, bs));
+                }
             }
-        });
+            row
+        })
+        .collect();
+    let (mut best_d, mut best_seg) = (dist, seg);
+    for (k, d, s) in changes.into_iter().flatten() {
+        best_d[k] = d;
+        best_seg[k] = s;
+    }
     let best_label: Vec<u32> = best_seg.iter().map(|&s| label_of(s)).collect();
     let mut out = NearestContours {
         min1: vec![f32::INFINITY; w * h],
