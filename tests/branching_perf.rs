@@ -70,3 +70,41 @@ fn one_to_two_over_100_by_60_mm_at_0_05_mm() {
         c.warnings
     );
 }
+
+#[test]
+#[ignore = "timing; run in release"]
+fn ten_thousand_tiny_overlap_tests() {
+    use bskin::geometry::overlap::{overlap_area, regions_overlap, Region};
+    // A slice of 100 × 100 tiny contours (trabecular-bone-like) against a shifted copy.
+    let lower: Vec<Vec<Point>> = (0..10_000)
+        .map(|k| {
+            ellipse(
+                (k % 100) as f64 * 1.0,
+                (k / 100) as f64 * 1.0,
+                0.3,
+                0.25,
+                16,
+            )
+        })
+        .collect();
+    let upper: Vec<Vec<Point>> = lower
+        .iter()
+        .map(|c| c.iter().map(|p| [p[0] + 0.2, p[1] + 0.1]).collect())
+        .collect();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
+    let mut hits = 0;
+    let mut area = 0.0;
+    for (a, b) in lower.iter().zip(&upper) {
+        let (ra, rb) = (Region::filled(a), Region::filled(b));
+        if regions_overlap(&ra, &rb, 0.01) {
+            hits += 1;
+            area += overlap_area(&ra, &rb, 0.02);
+        }
+    }
+    eprintln!(
+        "10 000 tiny pairs: {hits} overlap, total {area:.3} mm², {:.1} ms wall, {:.0} ms CPU",
+        t.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - cpu) * 1e3
+    );
+    assert_eq!(hits, 10_000);
+}
