@@ -393,3 +393,61 @@ proptest! {
         prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);
     }
 }
+
+#[test]
+fn degenerate_inputs_do_not_panic() {
+    let cell = 0.2;
+    let disc = ellipse(0.0, 0.0, 5.0, 5.0, 100);
+    let line: Vec<Point> = vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+    let dup: Vec<Point> = vec![[1.0, 1.0]; 5];
+    let mut cw = disc.clone();
+    cw.reverse();
+    for bad in [&line, &dup, &cw] {
+        if let Ok(r) = intermediate_contours(&[bad], &[&disc], cell) {
+            check_loops_valid(&r);
+            assert_eq!((r.lower.len(), r.upper.len()), (1, 1));
+        }
+        if let Ok(r) = intermediate_contours(&[&disc], &[bad, &disc], cell) {
+            check_loops_valid(&r);
+        }
+        let _ = cap(bad, &[], cell);
+        let _ = cap(&disc, &[bad], cell);
+    }
+    // Infinite coordinates and bad cells are refused (huge rasters are coarsened: see the
+    // unit test in branching.rs, a full-size raster is too slow for a debug test run).
+    let inf: Vec<Point> = vec![[0.0, 0.0], [f64::INFINITY, 0.0], [0.0, 1.0]];
+    assert!(intermediate_contours(&[&inf], &[&disc], cell).is_err());
+    assert!(cap(&inf, &[], cell).is_err());
+    assert!(cap(&disc, &[], f64::NAN).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 8,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// A random star-shaped plate with a random star-shaped hole closes like a torus: the
+    /// outer contour's cap and the hole's cap are one and the same ridge loop, lying in the
+    /// material, around the hole.
+    #[test]
+    fn random_annulus_caps_onto_one_ridge_loop(seed in any::<u64>()) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let cell = 0.15;
+        let outer = star(&mut rng, [0.0, 0.0], 12.0, 120);
+        let hx = rng.random_range(-1.0..1.0);
+        let mut hole = star(&mut rng, [hx, 0.0], 3.0, 60);
+        hole.reverse();
+        let c = cap(&outer, &[&hole], cell).unwrap();
+        let (Intermediate::Loop(o), Intermediate::Loop(h)) = (&c.outer, &c.holes[0]) else {
+            return Err(TestCaseError::fail(format!("expected loops: {:?}", c.warnings)));
+        };
+        prop_assert!(signed_area(o) > 0.0 && is_simple(o));
+        prop_assert_eq!(o, h);
+        prop_assert!(contains(o, [0.0, 0.0]) || contains(o, hole[0]));
+        for &p in o.iter() {
+            prop_assert!(contains(&outer, p) && !contains(&hole, p), "{:?} not in the material", p);
+        }
+    }
+}
