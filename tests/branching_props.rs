@@ -451,3 +451,28 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn contour_splitting_below_the_mid_plane_keeps_the_largest_piece() {
+    // A long ellipse under two discs far apart at its ends: M is in two pieces, so the lower
+    // contour's zone (everything) meets M twice.
+    let cell = 0.15;
+    let lower = ellipse(0.0, 0.0, 30.0, 4.0, 400);
+    let left = ellipse(-24.0, 0.0, 5.0, 5.0, 200);
+    let right = ellipse(25.0, 0.0, 4.0, 4.0, 200);
+    let r = intermediate_contours(&[&lower], &[&left, &right], cell).unwrap();
+    check_loops_valid(&r);
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w.contains("lower contour 0") && w.contains("2 pieces")),
+        "{:?}",
+        r.warnings
+    );
+    let Intermediate::Loop(lo) = &r.lower[0] else {
+        panic!()
+    };
+    // The larger piece is the one over the larger disc.
+    assert!(contains(lo, [-24.0, 0.0]) && !contains(lo, [25.0, 0.0]));
+    assert!(loops(&r.upper).len() == 2);
+}

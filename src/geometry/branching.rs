@@ -21,13 +21,19 @@
 //!   then compressed within a quarter cell with shared chains compressed identically.
 //!
 //! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
-//! - `M ∩ zone_i` in several pieces: the largest piece is kept;
+//! - `M ∩ zone_i` in several pieces: the largest piece is kept. (This happens when a contour
+//!   really splits below the mid-plane, e.g. a long ellipse under two discs far apart at its
+//!   ends: `M` itself is in two pieces. The smaller piece is then covered by no intermediate
+//!   contour of that section; a caller that cares can add an intermediate level.)
 //! - a piece with holes (possible when `M` itself is annular): the holes are dropped;
 //! - `M ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
 //!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
 //! - `M` empty (no contour overlaps any other): every contour gets the point of largest
 //!   distance inside it (its cap, as the paper does for degeneracy);
-//! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit.
+//! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit;
+//! - contours of one section that overlap each other (the construction assumes disjoint
+//!   contours, as a compiled slice's outer boundaries are): a warning, and the result treats
+//!   the section as the nearest contour's signed distance, which is not the union's there.
 //!
 //! Invariants: deterministic (no hash-map order reaches the output; rayon only maps
 //! independent items in order), no panics on bad input (errors instead).
@@ -37,6 +43,7 @@ use rayon::prelude::*;
 use super::distance_map::{
     bbox_of, nearest_contours, signed_distance, validate_polygons, Grid, NearestContours,
 };
+use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
 use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, world_loops};
 use super::GeometryError;
@@ -132,6 +139,22 @@ pub fn intermediate_contours(
                      filled anyway",
                     signed_area(c)
                 ));
+            }
+        }
+    }
+    // The construction takes a section as the union of its contours and needs them disjoint
+    // (the signed distance to the union is then the smallest of theirs).
+    for (name, set) in [("lower", lower), ("upper", upper)] {
+        for i in 0..set.len() {
+            for j in i + 1..set.len() {
+                let shared =
+                    overlap_area(&Region::filled(set[i]), &Region::filled(set[j]), cell_mm);
+                if shared > 0.0 {
+                    warnings.push(format!(
+                        "{name} contours {i} and {j} overlap ({shared:.4} mm²); the section is \
+                         expected to consist of disjoint contours"
+                    ));
+                }
             }
         }
     }
