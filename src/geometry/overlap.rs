@@ -112,6 +112,10 @@ pub fn overlap_area(a: &Region, b: &Region, cell_mm: f64) -> f64 {
 
 /// The scanline integral, stopping early once it exceeds `stop_above`.
 fn integrate(a: &Region, b: &Region, cell_mm: f64, stop_above: f64) -> f64 {
+    // Boxes first: the common case of far-apart contours costs two bounding boxes.
+    let Some(bx) = box_intersection(bbox(a.outer), bbox(b.outer)) else {
+        return 0.0;
+    };
     let finite = |r: &Region| {
         r.loops()
             .flatten()
@@ -120,9 +124,6 @@ fn integrate(a: &Region, b: &Region, cell_mm: f64, stop_above: f64) -> f64 {
     if !(finite(a) && finite(b)) {
         return 0.0;
     }
-    let Some(bx) = box_intersection(bbox(a.outer), bbox(b.outer)) else {
-        return 0.0;
-    };
     if bx.iter().any(|v| !v.is_finite()) {
         return 0.0;
     }
