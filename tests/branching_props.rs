@@ -67,11 +67,12 @@ fn loops(v: &[Intermediate]) -> Vec<&Vec<Point>> {
 
 /// Worst gap between the two tilings of M: every vertex of a loop of one side that is not on
 /// a bisecting edge shared with its own side (farther than `cell` from the side's other
-/// loops) lies on ∂M, so it must lie on some loop of the other side. Both directions.
-fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
+/// loops) lies on ∂M, so it must lie on some loop of the other side. Both directions. Also
+/// counts how many of those vertices are vertices of the other side bit for bit.
+fn tiling_gap_counts(r: &IntermediateContours, cell: f64) -> (f64, usize, usize) {
     let (lo, up) = (loops(&r.lower), loops(&r.upper));
-    let one_way = |a: &[&Vec<Point>], b: &[&Vec<Point>]| -> f64 {
-        let mut worst: f64 = 0.0;
+    let one_way = |a: &[&Vec<Point>], b: &[&Vec<Point>]| -> (f64, usize, usize) {
+        let (mut worst, mut same, mut total): (f64, usize, usize) = (0.0, 0, 0);
         for (i, l) in a.iter().enumerate() {
             for &p in l.iter() {
                 let own = a
@@ -88,11 +89,19 @@ fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
                     .map(|o| boundary_distance(o, p))
                     .fold(f64::INFINITY, f64::min);
                 worst = worst.max(other);
+                total += 1;
+                same += b.iter().any(|o| o.contains(&p)) as usize;
             }
         }
-        worst
+        (worst, same, total)
     };
-    one_way(&lo, &up).max(one_way(&up, &lo))
+    let (g1, s1, t1) = one_way(&lo, &up);
+    let (g2, s2, t2) = one_way(&up, &lo);
+    (g1.max(g2), s1 + s2, t1 + t2)
+}
+
+fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
+    tiling_gap_counts(r, cell).0
 }
 
 fn check_loops_valid(r: &IntermediateContours) {
@@ -214,10 +223,11 @@ fn one_to_two_ellipse_over_two_discs() {
             }
         }
     }
-    let union_gap = tiling_gap(&r, cell);
+    let (union_gap, same, total) = tiling_gap_counts(&r, cell);
     eprintln!(
         "1-to-2: |φ_M| on lower loop ≤ {:.4} cell; upper outer parts to lower loop ≤ {:.4} cell; \
-         bisector |x| ≤ {:.2e} cell ({shared} shared points); tiling gap {:.4} cell",
+         bisector |x| ≤ {:.2e} cell ({shared} shared points); tiling gap {:.4} cell; \
+         {same} of {total} ∂M vertices identical on both sides",
         worst_phi / cell,
         worst_outer / cell,
         worst_bisector / cell,
@@ -257,10 +267,11 @@ fn two_to_two_and_one_to_three_tile_the_same_mid_section() {
         check_loops_valid(&r);
         assert_eq!(loops(&r.lower).len(), a1.len(), "{name}: {:?}", r.warnings);
         assert_eq!(loops(&r.upper).len(), a2.len(), "{name}: {:?}", r.warnings);
-        let gap = tiling_gap(&r, cell);
+        let (gap, same, total) = tiling_gap_counts(&r, cell);
         let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
         eprintln!(
-            "{name}: tiling gap {:.4} cell, areas {al:.3} / {au:.3} mm²",
+            "{name}: tiling gap {:.4} cell, areas {al:.3} / {au:.3} mm², {same} of {total} ∂M \
+             vertices identical on both sides",
             gap / cell
         );
         assert!(gap < 0.5 * cell, "{name}: gap {gap}");
