@@ -45,7 +45,9 @@ use super::distance_map::{
 };
 use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
-use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, world_loops};
+use super::zones::{
+    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops,
+};
 use super::GeometryError;
 
 /// Largest raster used (samples). Peak memory is about 100 bytes per sample (two sections'
@@ -195,15 +197,15 @@ pub fn intermediate_contours(
             if m_empty {
                 return (None, notes);
             }
-            let field: Vec<f32> = (0..grid.len())
-                .map(|k| (neg_phi[k] as f64).min(neg_psi(near, i as u32, k)) as f32)
-                .collect();
-            let loops = world_loops(&grid, &field);
+            // Rounded as the f32 field is, so every step sees what marching squares saw.
+            let g = |k: usize| neg_phi[k] as f64;
+            let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
+            let loops = zone_loops(&grid, &g, &n);
             let (best, count, total) = largest_loop(&loops, true);
             let Some(b) = best else {
                 return (None, notes);
             };
-            let chosen = loops[b].clone();
+            let chosen = insert_junctions(&loops[b], &grid, &g, &n);
             if count > 1 {
                 notes.push(format!(
                     "{name} contour {i}: its zone meets the mid-section in {count} pieces; kept \

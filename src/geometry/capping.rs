@@ -27,7 +27,7 @@
 use super::branching::{raster_for, Intermediate, SIMPLIFY_TOL_CELLS};
 use super::distance_map::{inside_mask, nearest_contours, validate_polygons, Grid};
 use super::polygon::{signed_area, Point};
-use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, world_loops};
+use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops};
 use super::GeometryError;
 
 /// The caps of one region: the outer contour's and each hole's, in input order.
@@ -81,15 +81,14 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     }
 
     // Zone loops: label 0 is the outer contour, label h + 1 hole h.
-    let zone_loops = |label: u32| {
-        let field: Vec<f32> = (0..grid.len())
-            .map(|k| (neg_sdm[k] as f64).min(neg_psi(&near, label, k)) as f32)
-            .collect();
-        world_loops(&grid, &field)
+    let zone_loops_of = |label: u32| {
+        let g = |k: usize| neg_sdm[k] as f64;
+        let n = |k: usize| neg_psi(&near, label, k) as f32 as f64;
+        zone_loops(&grid, &g, &n)
     };
     let mut chosen: Vec<Option<Vec<Point>>> = Vec::with_capacity(all.len());
     for label in 0..all.len() {
-        let loops = zone_loops(label as u32);
+        let loops = zone_loops_of(label as u32);
         // The outer contour's zone is bounded inside by the ridge (a clockwise hole loop of
         // its zone region); a hole's zone outside by the ridge (counter-clockwise).
         let want_ccw = label > 0;

@@ -50,9 +50,83 @@ pub(crate) fn neg_psi(near: &NearestContours, i: u32, k: usize) -> f64 {
     }
 }
 
-/// Zero-level loops of `field` (inside = `≥ 0`), in world coordinates.
-pub(crate) fn world_loops(grid: &Grid, field: &[f32]) -> Vec<Vec<Point>> {
-    iso_loops(field, grid.width, grid.height, 0.0)
+/// Same clamp as marching squares: crossings stay a hair away from the samples.
+const T_MARGIN: f64 = 1e-4;
+
+/// Zero-level loops of `min(g, n)` (inside = `≥ 0`) in world coordinates, with every crossing
+/// placed on the field that really crosses there.
+///
+/// Marching squares on the sampled `min(g, n)` interpolates, on a grid edge whose ends take
+/// the minimum from different fields, between a value of `g` and a value of `n`: near the
+/// corner where the two zero sets meet the crossing then lies on neither. Each crossing is
+/// recomputed here from the two fields' own linear interpolants along its edge (the exit of
+/// `{g ≥ 0} ∩ {n ≥ 0}`), parameterised from the edge's first sample so that a neighbour whose
+/// `n` is negated gets the same point bit for bit, and a loop of the other section (same `g`)
+/// gets the same point on the mid-section boundary. The topology is marching squares' own.
+/// `g` and `n` must return the values as rounded into the `f32` field.
+pub(crate) fn zone_loops(
+    grid: &Grid,
+    g: &(dyn Fn(usize) -> f64 + Sync),
+    n: &(dyn Fn(usize) -> f64 + Sync),
+) -> Vec<Vec<Point>> {
+    let (w, h) = (grid.width, grid.height);
+    let field: Vec<f32> = (0..grid.len()).map(|k| g(k).min(n(k)) as f32).collect();
+    let mut loops = iso_loops(&field, w, h, 0.0);
+    for lp in loops.iter_mut() {
+        for p in lp.iter_mut() {
+            // The edge the crossing lies on: one pixel coordinate is an exact integer.
+            let (a, b, horizontal) = if p[1].fract() == 0.0 && p[0].fract() != 0.0 {
+                let (r, c) = (p[1], p[0].floor());
+                if r < 0.0 || c < 0.0 || r >= h as f64 || c + 1.0 >= w as f64 {
+                    continue;
+                }
+                let k = r as usize * w + c as usize;
+                (k, k + 1, true)
+            } else if p[0].fract() == 0.0 && p[1].fract() != 0.0 {
+                let (r, c) = (p[1].floor(), p[0]);
+                if r < 0.0 || c < 0.0 || r + 1.0 >= h as f64 || c >= w as f64 {
+                    continue;
+                }
+                let k = r as usize * w + c as usize;
+                (k, k + w, false)
+            } else {
+                continue;
+            };
+            let (ga, gb, na, nb) = (g(a), g(b), n(a), n(b));
+            let inside_a = ga.min(na) >= 0.0;
+            if inside_a == (gb.min(nb) >= 0.0) || !(ga.is_finite() && gb.is_finite()) {
+                continue;
+            }
+            // Zero of one field along the edge, from sample a; only where it changes sign.
+            let zero = |fa: f64, fb: f64| {
+                ((fa >= 0.0) != (fb >= 0.0) && fa.is_finite() && fb.is_finite())
+                    .then(|| fa / (fa - fb))
+            };
+            let (tg, tn) = (zero(ga, gb), zero(na, nb));
+            let t = if inside_a {
+                // Leaving the region: the first field to go negative.
+                match (tg.filter(|_| gb < 0.0), tn.filter(|_| nb < 0.0)) {
+                    (Some(x), Some(y)) => x.min(y),
+                    (Some(x), None) | (None, Some(x)) => x,
+                    (None, None) => continue,
+                }
+            } else {
+                // Entering it: the last field to become non-negative.
+                match (tg.filter(|_| ga < 0.0), tn.filter(|_| na < 0.0)) {
+                    (Some(x), Some(y)) => x.max(y),
+                    (Some(x), None) | (None, Some(x)) => x,
+                    (None, None) => continue,
+                }
+            };
+            let t = t.clamp(T_MARGIN, 1.0 - T_MARGIN);
+            if horizontal {
+                p[0] = p[0].floor() + t;
+            } else {
+                p[1] = p[1].floor() + t;
+            }
+        }
+    }
+    loops
         .into_iter()
         .map(|lp| lp.into_iter().map(|p| grid.to_world(p)).collect())
         .collect()
@@ -190,6 +264,111 @@ pub(crate) fn simplify_shared(loops: &[Vec<Point>], tol: f64) -> Vec<Vec<Point>>
             lp.clone()
         })
         .collect()
+}
+
+/// Bilinear interpolation in a grid cell: corners `[v(r, c), v(r, c+1), v(r+1, c), v(r+1, c+1)]`
+/// at local coordinates `(u, v)` in `[0, 1]²`, with its gradient. Written so that negating
+/// the corners negates every result bit for bit.
+fn bilinear(f: [f64; 4], u: f64, v: f64) -> (f64, f64, f64) {
+    let val =
+        f[0] * (1.0 - u) * (1.0 - v) + f[1] * u * (1.0 - v) + f[2] * (1.0 - u) * v + f[3] * u * v;
+    let du = (f[1] - f[0]) * (1.0 - v) + (f[3] - f[2]) * v;
+    let dv = (f[2] - f[0]) * (1.0 - u) + (f[3] - f[1]) * u;
+    (val, du, dv)
+}
+
+/// Marching squares cuts the corner where two zero sets meet inside a cell (where the
+/// mid-section's boundary meets a bisecting edge): the loop of `min(g, n)` jumps from a
+/// crossing of one field straight to a crossing of the other. Put the corner back: for each
+/// loop edge whose ends lie on different fields, solve `g = n = 0` for the bilinear
+/// interpolants of that cell (Newton from the cell centre) and insert the solution. The
+/// neighbour across the bisecting edge sees the same cell with `n` negated and inserts the
+/// same point bit for bit (every step below is odd in `n`), so the corner stays shared. The
+/// loop is returned unchanged if the result would not be simple.
+pub(crate) fn insert_junctions(
+    lp: &[Point],
+    grid: &Grid,
+    g: &(dyn Fn(usize) -> f64 + Sync),
+    n: &(dyn Fn(usize) -> f64 + Sync),
+) -> Vec<Point> {
+    let (w, h) = (grid.width, grid.height);
+    if w < 2 || h < 2 {
+        return lp.to_vec();
+    }
+    let len = lp.len();
+    let mut out = Vec::with_capacity(len + 8);
+    let mut inserted = false;
+    for i in 0..len {
+        let (p, q) = (lp[i], lp[(i + 1) % len]);
+        out.push(p);
+        let pp = grid.to_pixel(p);
+        let qp = grid.to_pixel(q);
+        let mid = [0.5 * (pp[0] + qp[0]), 0.5 * (pp[1] + qp[1])];
+        let (c, r) = (mid[0].floor(), mid[1].floor());
+        if !(c >= 0.0 && r >= 0.0 && c < (w - 1) as f64 && r < (h - 1) as f64) {
+            continue;
+        }
+        let (c, r) = (c as usize, r as usize);
+        let k = [
+            r * w + c,
+            r * w + c + 1,
+            (r + 1) * w + c,
+            (r + 1) * w + c + 1,
+        ];
+        let gv = [g(k[0]), g(k[1]), g(k[2]), g(k[3])];
+        let nv = [n(k[0]), n(k[1]), n(k[2]), n(k[3])];
+        if gv.iter().chain(&nv).any(|v| !v.is_finite()) {
+            continue;
+        }
+        let mixed = |f: &[f64; 4]| f.iter().any(|&v| v >= 0.0) && f.iter().any(|&v| v < 0.0);
+        if !(mixed(&gv) && mixed(&nv)) {
+            continue;
+        }
+        // Which field is zero at each end (the active one of min(g, n)).
+        let on_g = |x: Point| {
+            let (u, v) = (x[0] - c as f64, x[1] - r as f64);
+            bilinear(gv, u, v).0.abs() <= bilinear(nv, u, v).0.abs()
+        };
+        if on_g(pp) == on_g(qp) {
+            continue;
+        }
+        let (mut u, mut v) = (0.5, 0.5);
+        let mut converged = false;
+        for _ in 0..20 {
+            let (gf, gu, gvv) = bilinear(gv, u, v);
+            let (nf, nu, nvv) = bilinear(nv, u, v);
+            let det = gu * nvv - gvv * nu;
+            if det == 0.0 || !det.is_finite() {
+                break;
+            }
+            let du = (-gf * nvv + nf * gvv) / det;
+            let dv = (-nf * gu + gf * nu) / det;
+            u += du;
+            v += dv;
+            if !(u.is_finite() && v.is_finite()) || u.abs() > 4.0 || v.abs() > 4.0 {
+                break;
+            }
+            if du.abs() + dv.abs() < 1e-12 {
+                converged = true;
+                break;
+            }
+        }
+        // The corner may sit on the cell's side (a bisecting edge through a row of samples,
+        // as symmetric input gives): accept it there too.
+        let inside = |t: f64| (-1e-9..=1.0 + 1e-9).contains(&t);
+        if converged && inside(u) && inside(v) {
+            let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+            let j = grid.to_world([c as f64 + u, r as f64 + v]);
+            if j != p && j != q {
+                out.push(j);
+                inserted = true;
+            }
+        }
+    }
+    if inserted && !is_simple(&out) {
+        return lp.to_vec();
+    }
+    out
 }
 
 /// Distance from `p` to the nearest boundary of the polygon set.
