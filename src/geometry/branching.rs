@@ -15,10 +15,28 @@
 //!   for the upper contours among themselves;
 //! - the intermediate contour of lower contour `i` is the boundary of `M ∩ zone_i`, extracted
 //!   by marching squares on `min(−φ_M, −ψ_i) ≥ 0`. So the lower intermediate contours tile
-//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges: a
-//!   sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit, so both loops cross each grid
-//!   edge at the same point (paper Fig. 4: c21's contour is `{e1, e2, e7, e6}`). The loops are
-//!   then compressed within a quarter cell with shared chains compressed identically.
+//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges (paper
+//!   Fig. 4: c21's contour is `{e1, e2, e7, e6}`).
+//!
+//! Making the shared edges identical, not just close:
+//! - a sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit (both come from the same
+//!   nearest-two distances), and an exact tie is given to one side only;
+//! - every crossing is recomputed from the field that really crosses its grid edge (marching
+//!   squares on a minimum would interpolate between the two fields near a junction), so both
+//!   sections' loops put the same point on `∂M` and both neighbours the same point on their
+//!   bisecting edge;
+//! - the corner where a bisecting edge meets `∂M` is solved in its cell and inserted by both
+//!   neighbours identically;
+//! - loops are compressed (Douglas–Peucker within [`SIMPLIFY_TOL_CELLS`] = ¼ cell) run by run,
+//!   where a run is a chain of points owned by the same set of loops, so a shared chain is
+//!   compressed to the same points in every loop that owns it.
+//!
+//! In the tests every `∂M` vertex of one section's loops is a vertex of the other section's
+//! (1-to-2, 2-to-2, 1-to-3, 3-to-1). Known limit: where a bisecting edge meets `∂M` at a
+//! shallow angle, the sliver between them can be thinner than the sample spacing and is then
+//! missed by one side's marching squares; over 300 random star problems 73% are exact and the
+//! worst gap is 0.47 cell. Clipping the `∂M` polygon by the zone polygons (whose crossings are
+//! already shared) would remove it.
 //!
 //! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
 //! - `M ∩ zone_i` in several pieces: the largest piece is kept. (This happens when a contour
