@@ -135,7 +135,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let mut caps = caps.into_iter();
     let outer_cap = caps
         .next()
-        .unwrap_or(Intermediate::Point(innermost(&grid, &all, &neg_sdm)));
+        .unwrap_or_else(|| Intermediate::Point(innermost(&grid, &all, &neg_sdm)));
     Ok(Caps {
         outer: outer_cap,
         holes: caps.collect(),
