@@ -108,3 +108,71 @@ fn ten_thousand_tiny_overlap_tests() {
     );
     assert_eq!(hits, 10_000);
 }
+
+/// Contours as the input compilation makes them: marching squares on a 0.5 mm image, then
+/// compressed within 0.05 mm (jagged at the pixel scale, hundreds of points).
+fn compiled(f: impl Fn(f64, f64) -> f64, size: usize, pixel: f64) -> Vec<Vec<Point>> {
+    use bskin::geometry::marching_squares::iso_loops;
+    use bskin::geometry::simplify::simplify_closed;
+    let field: Vec<f32> = (0..size * size)
+        .map(|k| f((k % size) as f64 * pixel, (k / size) as f64 * pixel) as f32)
+        .collect();
+    iso_loops(&field, size, size, 0.0)
+        .into_iter()
+        .map(|l| {
+            let mm: Vec<Point> = l.iter().map(|p| [p[0] * pixel, p[1] * pixel]).collect();
+            simplify_closed(&mm, 0.05)
+        })
+        .collect()
+}
+
+#[test]
+#[ignore = "timing; run in release"]
+fn compiled_contours_one_to_two() {
+    use bskin::geometry::polygon::{is_simple, signed_area};
+    // A femur-like shaft below, splitting into two condyles above (with a little noise).
+    let noise = |x: f64, y: f64| 0.3 * ((x * 1.7).sin() * (y * 2.3).cos());
+    let below = compiled(
+        |x, y| {
+            1.0 - (((x - 50.0) / 30.0).powi(2) + ((y - 50.0) / 18.0).powi(2)).sqrt()
+                + 0.01 * noise(x, y)
+        },
+        200,
+        0.5,
+    );
+    let above = compiled(
+        |x, y| {
+            let a = 1.0 - (((x - 33.0) / 15.0).powi(2) + ((y - 52.0) / 16.0).powi(2)).sqrt();
+            let b = 1.0 - (((x - 68.0) / 13.0).powi(2) + ((y - 48.0) / 15.0).powi(2)).sqrt();
+            a.max(b) + 0.01 * noise(y, x)
+        },
+        200,
+        0.5,
+    );
+    let lo: Vec<&[Point]> = below.iter().map(|v| v.as_slice()).collect();
+    let up: Vec<&[Point]> = above.iter().map(|v| v.as_slice()).collect();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
+    let r = intermediate_contours(&lo, &up, 0.05).unwrap();
+    eprintln!(
+        "compiled {}-to-{} ({:?} / {:?} points) at 0.05 mm: {:.0} ms wall, {:.0} ms CPU, \
+         warnings {:?}",
+        lo.len(),
+        up.len(),
+        lo.iter().map(|c| c.len()).collect::<Vec<_>>(),
+        up.iter().map(|c| c.len()).collect::<Vec<_>>(),
+        t.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - cpu) * 1e3,
+        r.warnings
+    );
+    for i in r.lower.iter().chain(&r.upper) {
+        let Intermediate::Loop(l) = i else {
+            panic!("degenerate: {i:?}")
+        };
+        assert!(signed_area(l) > 0.0 && is_simple(l));
+        eprintln!(
+            "  loop of {} points, area {:.2} mm²",
+            l.len(),
+            signed_area(l)
+        );
+    }
+}
