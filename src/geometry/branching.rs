@@ -135,7 +135,14 @@ pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     refine_innermost(&[contour], start, grid.cell_mm)
 }
 
-/// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2).
+/// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2), on a
+/// raster of `cell_mm` (coarsened with a warning past [`MAX_RASTER_CELLS`]). Holes are not
+/// part of a section here: a caller branching holes among themselves passes them reversed
+/// (as filled counter-clockwise contours).
+///
+/// Errors: an empty section ([`GeometryError::Empty`]), a contour with fewer than 3 points
+/// ([`GeometryError::Degenerate`]), a non-finite coordinate ([`GeometryError::NonFinite`]), a
+/// cell that is not a positive number ([`GeometryError::InvalidParameter`]).
 pub fn intermediate_contours(
     lower: &[&[Point]],
     upper: &[&[Point]],
