@@ -542,6 +542,8 @@ pub struct NearestContours {
     pub min3: Vec<f32>,
 }
 
+/// The [`NearestContours`] of the polygon set on the grid (labels are indices into `polys`,
+/// [`NO_SITE`] where none).
 pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> NearestContours {
     let (w, h) = (grid.width, grid.height);
     let segs = Segments::new(polys);
