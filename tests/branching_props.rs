@@ -403,10 +403,9 @@ proptest! {
         if r.warnings.is_empty() {
             let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
             prop_assert!((al - au).abs() < 0.01 * al.max(1.0), "areas {} vs {}", al, au);
-            // Usually 0 (every vertex on ∂M shared bit for bit); where a bisecting edge meets
-            // ∂M at a shallow angle, a sliver between two samples can be missed by one side's
-            // marching squares: up to ~0.5 cell seen over 300 random problems.
-            prop_assert!(tiling_gap(&r, cell) < cell);
+            // Usually 0 (every vertex on ∂M shared bit for bit): 190 of 191 of seeds 0..300
+            // without warnings, the other 0.06 cell (a corner the tracing gave up on).
+            prop_assert!(tiling_gap(&r, cell) < 0.5 * cell);
         }
         // Deterministic: a second run is identical.
         prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);

@@ -277,14 +277,180 @@ fn bilinear(f: [f64; 4], u: f64, v: f64) -> (f64, f64, f64) {
     (val, du, dv)
 }
 
-/// Marching squares cuts the corner where two zero sets meet inside a cell (where the
-/// mid-section's boundary meets a bisecting edge): the loop of `min(g, n)` jumps from a
-/// crossing of one field straight to a crossing of the other. Put the corner back: for each
-/// loop edge whose ends lie on different fields, solve `g = n = 0` for the bilinear
-/// interpolants of that cell (Newton from the cell centre) and insert the solution. The
-/// neighbour across the bisecting edge sees the same cell with `n` negated and inserts the
-/// same point bit for bit (every step below is odd in `n`), so the corner stays shared. The
-/// loop is returned unchanged if the result would not be simple.
+/// The four sides of a grid cell.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Side {
+    Top,
+    Bottom,
+    Left,
+    Right,
+}
+
+const SIDES: [Side; 4] = [Side::Top, Side::Right, Side::Bottom, Side::Left];
+
+/// What following a zero curve found: the crossings passed, the cell it stopped in, and the
+/// junction with the other curve there (when looking for one).
+type Followed = (Vec<Point>, (usize, usize), Option<Point>);
+
+/// Walking the zero curves of two sampled fields cell by cell, with crossings placed exactly
+/// as [`zone_loops`] places them (so they coincide bit for bit with other loops' vertices).
+struct Tracer<'a> {
+    grid: &'a Grid,
+    g: &'a (dyn Fn(usize) -> f64 + Sync),
+    n: &'a (dyn Fn(usize) -> f64 + Sync),
+}
+
+impl Tracer<'_> {
+    fn field(&self, on_g: bool, k: usize) -> f64 {
+        if on_g {
+            (self.g)(k)
+        } else {
+            (self.n)(k)
+        }
+    }
+
+    /// End samples of a side of cell (c, r), first sample first (left or top end).
+    fn side_samples(&self, c: usize, r: usize, side: Side) -> (usize, usize) {
+        let w = self.grid.width;
+        match side {
+            Side::Top => (r * w + c, r * w + c + 1),
+            Side::Bottom => ((r + 1) * w + c, (r + 1) * w + c + 1),
+            Side::Left => (r * w + c, (r + 1) * w + c),
+            Side::Right => (r * w + c + 1, (r + 1) * w + c + 1),
+        }
+    }
+
+    /// Pixel position of the field's zero on a side, if the field changes sign there.
+    fn crossing(&self, on_g: bool, c: usize, r: usize, side: Side) -> Option<Point> {
+        let (a, b) = self.side_samples(c, r, side);
+        let (fa, fb) = (self.field(on_g, a), self.field(on_g, b));
+        if !(fa.is_finite() && fb.is_finite()) || (fa >= 0.0) == (fb >= 0.0) {
+            return None;
+        }
+        let t = (fa / (fa - fb)).clamp(T_MARGIN, 1.0 - T_MARGIN);
+        let (c, r) = (c as f64, r as f64);
+        Some(match side {
+            Side::Top => [c + t, r],
+            Side::Bottom => [c + t, r + 1.0],
+            Side::Left => [c, r + t],
+            Side::Right => [c + 1.0, r + t],
+        })
+    }
+
+    /// The side of cell (c, r) a pixel point lies on, if any (up to the rounding of the
+    /// world ↔ pixel round trip).
+    fn side_of(c: usize, r: usize, p: Point) -> Option<Side> {
+        const EPS: f64 = 1e-7;
+        let (u, v) = (p[0] - c as f64, p[1] - r as f64);
+        let along = |t: f64| t > 0.0 && t < 1.0;
+        if v.abs() < EPS && along(u) {
+            Some(Side::Top)
+        } else if (v - 1.0).abs() < EPS && along(u) {
+            Some(Side::Bottom)
+        } else if u.abs() < EPS && along(v) {
+            Some(Side::Left)
+        } else if (u - 1.0).abs() < EPS && along(v) {
+            Some(Side::Right)
+        } else {
+            None
+        }
+    }
+
+    /// Corner values of both fields in cell (c, r), if all finite.
+    fn cell(&self, c: usize, r: usize) -> Option<([f64; 4], [f64; 4])> {
+        let w = self.grid.width;
+        let k = [
+            r * w + c,
+            r * w + c + 1,
+            (r + 1) * w + c,
+            (r + 1) * w + c + 1,
+        ];
+        let gv = [
+            (self.g)(k[0]),
+            (self.g)(k[1]),
+            (self.g)(k[2]),
+            (self.g)(k[3]),
+        ];
+        let nv = [
+            (self.n)(k[0]),
+            (self.n)(k[1]),
+            (self.n)(k[2]),
+            (self.n)(k[3]),
+        ];
+        gv.iter()
+            .chain(&nv)
+            .all(|v| v.is_finite())
+            .then_some((gv, nv))
+    }
+
+    /// Where both zero curves meet in cell (c, r), in pixel coordinates.
+    fn junction(&self, c: usize, r: usize) -> Option<Point> {
+        let (gv, nv) = self.cell(c, r)?;
+        let mixed = |f: &[f64; 4]| f.iter().any(|&v| v >= 0.0) && f.iter().any(|&v| v < 0.0);
+        if !(mixed(&gv) && mixed(&nv)) {
+            return None;
+        }
+        let (u, v) = solve_corner(gv, nv)?;
+        Some([c as f64 + u, r as f64 + v])
+    }
+
+    /// Follow one field's zero curve from the crossing `p` on a side of cell (c, r) into that
+    /// cell and on, cell by cell, collecting the crossings passed, until a cell holding a
+    /// junction with the other field (returned with its cell) or `stop` cell is reached.
+    /// Gives up after a few cells, at a saddle, or at the raster's edge.
+    fn follow(
+        &self,
+        on_g: bool,
+        start: (usize, usize),
+        p: Point,
+        stop: Option<(usize, usize)>,
+    ) -> Option<Followed> {
+        let (w, h) = (self.grid.width, self.grid.height);
+        let (mut c, mut r) = start;
+        let mut entry = Self::side_of(c, r, p)?;
+        let mut path = Vec::new();
+        for _ in 0..6 {
+            if stop == Some((c, r)) {
+                return Some((path, (c, r), None));
+            }
+            if stop.is_none() {
+                if let Some(j) = self.junction(c, r) {
+                    return Some((path, (c, r), Some(j)));
+                }
+            }
+            let exits: Vec<Side> = SIDES
+                .iter()
+                .copied()
+                .filter(|&s| s != entry && self.crossing(on_g, c, r, s).is_some())
+                .collect();
+            let [exit] = exits[..] else {
+                return None;
+            };
+            path.push(self.crossing(on_g, c, r, exit)?);
+            let (nc, nr, ne) = match exit {
+                Side::Top if r > 0 => (c, r - 1, Side::Bottom),
+                Side::Bottom if r + 2 < h => (c, r + 1, Side::Top),
+                Side::Left if c > 0 => (c - 1, r, Side::Right),
+                Side::Right if c + 2 < w => (c + 1, r, Side::Left),
+                _ => return None,
+            };
+            (c, r, entry) = (nc, nr, ne);
+        }
+        None
+    }
+}
+
+/// Marching squares cuts the corner where two zero sets meet (where the mid-section's
+/// boundary meets a bisecting edge): the loop of `min(g, n)` jumps from a crossing of one
+/// field straight to a crossing of the other, and where the two meet at a shallow angle the
+/// cut can skip whole cells whose samples all lie outside. Put the corner back: for each loop
+/// edge whose ends lie on different fields, follow the first end's zero curve cell by cell
+/// (collecting its crossings) to the cell where the two curves meet, solve `g = n = 0` there
+/// for the bilinear interpolants (Newton from the cell centre), then follow the second end's
+/// zero curve back from that end to the same cell. Crossings are placed as [`zone_loops`]
+/// places them and the corner is odd in `n`, so the loop across the bisecting edge and the
+/// other section's loops get the same points bit for bit. The loop is returned unchanged if
+/// the result would not be simple.
 pub(crate) fn insert_junctions(
     lp: &[Point],
     grid: &Grid,
@@ -295,80 +461,84 @@ pub(crate) fn insert_junctions(
     if w < 2 || h < 2 {
         return lp.to_vec();
     }
+    let tracer = Tracer { grid, g, n };
+    // Whether a loop vertex (pixel) is a zero of g rather than n: the one nearer zero along
+    // its grid edge.
+    let on_g = |c: usize, r: usize, x: Point| -> Option<bool> {
+        let (gv, nv) = tracer.cell(c, r)?;
+        let (u, v) = (x[0] - c as f64, x[1] - r as f64);
+        Some(bilinear(gv, u, v).0.abs() <= bilinear(nv, u, v).0.abs())
+    };
     let len = lp.len();
     let mut out = Vec::with_capacity(len + 8);
     let mut inserted = false;
     for i in 0..len {
         let (p, q) = (lp[i], lp[(i + 1) % len]);
         out.push(p);
-        let pp = grid.to_pixel(p);
-        let qp = grid.to_pixel(q);
+        let (pp, qp) = (grid.to_pixel(p), grid.to_pixel(q));
+        // The cell the segment p → q crosses (marching squares keeps segments in one cell).
         let mid = [0.5 * (pp[0] + qp[0]), 0.5 * (pp[1] + qp[1])];
-        let (c, r) = (mid[0].floor(), mid[1].floor());
-        if !(c >= 0.0 && r >= 0.0 && c < (w - 1) as f64 && r < (h - 1) as f64) {
+        let (cf, rf) = (mid[0].floor(), mid[1].floor());
+        if !(cf >= 0.0 && rf >= 0.0 && cf < (w - 1) as f64 && rf < (h - 1) as f64) {
             continue;
         }
-        let (c, r) = (c as usize, r as usize);
-        let k = [
-            r * w + c,
-            r * w + c + 1,
-            (r + 1) * w + c,
-            (r + 1) * w + c + 1,
-        ];
-        let gv = [g(k[0]), g(k[1]), g(k[2]), g(k[3])];
-        let nv = [n(k[0]), n(k[1]), n(k[2]), n(k[3])];
-        if gv.iter().chain(&nv).any(|v| !v.is_finite()) {
+        let cell = (cf as usize, rf as usize);
+        let (Some(p_on_g), Some(q_on_g)) = (on_g(cell.0, cell.1, pp), on_g(cell.0, cell.1, qp))
+        else {
             continue;
-        }
-        let mixed = |f: &[f64; 4]| f.iter().any(|&v| v >= 0.0) && f.iter().any(|&v| v < 0.0);
-        if !(mixed(&gv) && mixed(&nv)) {
-            continue;
-        }
-        // Which field is zero at each end (the active one of min(g, n)).
-        let on_g = |x: Point| {
-            let (u, v) = (x[0] - c as f64, x[1] - r as f64);
-            bilinear(gv, u, v).0.abs() <= bilinear(nv, u, v).0.abs()
         };
-        if on_g(pp) == on_g(qp) {
+        if p_on_g == q_on_g {
             continue;
         }
-        let (mut u, mut v) = (0.5, 0.5);
-        let mut converged = false;
-        for _ in 0..20 {
-            let (gf, gu, gvv) = bilinear(gv, u, v);
-            let (nf, nu, nvv) = bilinear(nv, u, v);
-            let det = gu * nvv - gvv * nu;
-            if det == 0.0 || !det.is_finite() {
-                break;
-            }
-            let du = (-gf * nvv + nf * gvv) / det;
-            let dv = (-nf * gu + gf * nu) / det;
-            u += du;
-            v += dv;
-            if !(u.is_finite() && v.is_finite()) || u.abs() > 4.0 || v.abs() > 4.0 {
-                break;
-            }
-            if du.abs() + dv.abs() < 1e-12 {
-                converged = true;
-                break;
-            }
-        }
-        // The corner may sit on the cell's side (a bisecting edge through a row of samples,
-        // as symmetric input gives): accept it there too.
-        let inside = |t: f64| (-1e-9..=1.0 + 1e-9).contains(&t);
-        if converged && inside(u) && inside(v) {
-            let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
-            let j = grid.to_world([c as f64 + u, r as f64 + v]);
-            if j != p && j != q {
-                out.push(j);
-                inserted = true;
-            }
-        }
+        // Forward along p's curve to the junction, backward along q's curve to its cell.
+        let Some((ahead, jcell, Some(j))) = tracer.follow(p_on_g, cell, pp, None) else {
+            continue;
+        };
+        let Some((mut back, _, _)) = tracer.follow(q_on_g, cell, qp, Some(jcell)) else {
+            continue;
+        };
+        back.reverse();
+        let added: Vec<Point> = ahead
+            .into_iter()
+            .chain(std::iter::once(j))
+            .chain(back)
+            .map(|x| grid.to_world(x))
+            .filter(|&x| x != p && x != q)
+            .collect();
+        inserted |= !added.is_empty();
+        out.extend(added);
     }
     if inserted && !is_simple(&out) {
         return lp.to_vec();
     }
     out
+}
+
+/// The point of the cell `[0, 1]²` where both bilinear interpolants vanish, by Newton from
+/// the centre (odd in `n`: negating `n` gives the same point bit for bit). Points on the
+/// cell's sides count (a bisecting edge through a row of samples, as symmetric input gives).
+fn solve_corner(gv: [f64; 4], nv: [f64; 4]) -> Option<(f64, f64)> {
+    let (mut u, mut v) = (0.5, 0.5);
+    for _ in 0..20 {
+        let (gf, gu, gvv) = bilinear(gv, u, v);
+        let (nf, nu, nvv) = bilinear(nv, u, v);
+        let det = gu * nvv - gvv * nu;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let du = (-gf * nvv + nf * gvv) / det;
+        let dv = (-nf * gu + gf * nu) / det;
+        u += du;
+        v += dv;
+        if !(u.is_finite() && v.is_finite()) || u.abs() > 4.0 || v.abs() > 4.0 {
+            return None;
+        }
+        if du.abs() + dv.abs() < 1e-12 {
+            let inside = |t: f64| (-1e-9..=1.0 + 1e-9).contains(&t);
+            return (inside(u) && inside(v)).then(|| (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)));
+        }
+    }
+    None
 }
 
 /// Distance from `p` to the nearest boundary of the polygon set.
