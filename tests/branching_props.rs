@@ -67,11 +67,12 @@ fn loops(v: &[Intermediate]) -> Vec<&Vec<Point>> {
 
 /// Worst gap between the two tilings of M: every vertex of a loop of one side that is not on
 /// a bisecting edge shared with its own side (farther than `cell` from the side's other
-/// loops) lies on ∂M, so it must lie on some loop of the other side. Both directions.
-fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
+/// loops) lies on ∂M, so it must lie on some loop of the other side. Both directions. Also
+/// counts how many of those vertices are vertices of the other side bit for bit.
+fn tiling_gap_counts(r: &IntermediateContours, cell: f64) -> (f64, usize, usize) {
     let (lo, up) = (loops(&r.lower), loops(&r.upper));
-    let one_way = |a: &[&Vec<Point>], b: &[&Vec<Point>]| -> f64 {
-        let mut worst: f64 = 0.0;
+    let one_way = |a: &[&Vec<Point>], b: &[&Vec<Point>]| -> (f64, usize, usize) {
+        let (mut worst, mut same, mut total): (f64, usize, usize) = (0.0, 0, 0);
         for (i, l) in a.iter().enumerate() {
             for &p in l.iter() {
                 let own = a
@@ -88,11 +89,19 @@ fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
                     .map(|o| boundary_distance(o, p))
                     .fold(f64::INFINITY, f64::min);
                 worst = worst.max(other);
+                total += 1;
+                same += b.iter().any(|o| o.contains(&p)) as usize;
             }
         }
-        worst
+        (worst, same, total)
     };
-    one_way(&lo, &up).max(one_way(&up, &lo))
+    let (g1, s1, t1) = one_way(&lo, &up);
+    let (g2, s2, t2) = one_way(&up, &lo);
+    (g1.max(g2), s1 + s2, t1 + t2)
+}
+
+fn tiling_gap(r: &IntermediateContours, cell: f64) -> f64 {
+    tiling_gap_counts(r, cell).0
 }
 
 fn check_loops_valid(r: &IntermediateContours) {
@@ -112,24 +121,52 @@ fn distance_map_matches_brute_force_on_random_stars() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let cell = 0.1;
     let mut worst_cells: f64 = 0.0;
-    for case in 0..4 {
-        let a = star(&mut rng, [0.0, 0.0], 6.0, 60 + 20 * case);
-        let b = star(&mut rng, [14.0, 3.0], 4.0, 40);
+    let (mut worst_noisy, mut samples_noisy, mut above): (f64, usize, usize) = (0.0, 0, 0);
+    for case in 0..6 {
+        let mut a = star(&mut rng, [0.0, 0.0], 6.0, 60 + 20 * case);
+        let mut b = star(&mut rng, [14.0, 3.0], 4.0, 40 + 50 * case);
+        if case >= 3 {
+            // Noisy contours (like compiled CT contours): many local minima of the distance
+            // along the contour. Kept simple, as compiled contours are.
+            for p in a.iter_mut().chain(b.iter_mut()) {
+                p[0] += rng.random_range(-0.04..0.04);
+                p[1] += rng.random_range(-0.04..0.04);
+            }
+            assert!(is_simple(&a) && is_simple(&b));
+        }
         let set: Vec<&[Point]> = vec![&a, &b];
         let grid = Grid::covering([-10.0, -9.0, 21.0, 10.0], cell, 2, 1 << 22).unwrap();
         let d = signed_distance(&grid, &set);
-        for r in 0..grid.height {
-            for c in 0..grid.width {
+        // Every other row and column: brute force is the slow part of this test.
+        for r in (0..grid.height).step_by(2) {
+            for c in (case % 2..grid.width).step_by(2) {
                 let p = grid.point(r, c);
                 let e = union_sd(&set, p);
                 let got = d[r * grid.width + c] as f64;
-                worst_cells = worst_cells.max((got - e).abs() / cell);
+                let err = (got - e).abs() / cell;
+                if case >= 3 {
+                    worst_noisy = worst_noisy.max(err);
+                    samples_noisy += 1;
+                    above += (err > 0.01) as usize;
+                } else {
+                    worst_cells = worst_cells.max(err);
+                }
             }
         }
     }
-    eprintln!("distance map vs brute force: max error {worst_cells:.2e} cell");
+    eprintln!(
+        "distance map vs brute force: smooth stars max error {worst_cells:.2e} cell; noisy \
+         stars max {worst_noisy:.2e} cell, {above} of {samples_noisy} samples above 0.01 cell"
+    );
     // f32 storage alone accounts for ~1e-6 mm at these magnitudes.
     assert!(worst_cells < 1e-3, "max error {worst_cells} cell");
+    // On wiggly contours a few isolated samples deep inside keep a foot point on a
+    // neighbouring wiggle.
+    assert!(worst_noisy < 0.1, "max error {worst_noisy} cell");
+    assert!(
+        above * 1000 < samples_noisy,
+        "{above} samples above 0.01 cell"
+    );
 }
 
 #[test]
@@ -186,10 +223,11 @@ fn one_to_two_ellipse_over_two_discs() {
             }
         }
     }
-    let union_gap = tiling_gap(&r, cell);
+    let (union_gap, same, total) = tiling_gap_counts(&r, cell);
     eprintln!(
-        "1-to-2: |φ_M| on lower loop ≤ {:.4} cell; upper outer parts to lower loop ≤ {:.4} cell; \
-         bisector |x| ≤ {:.2e} cell ({shared} shared points); tiling gap {:.4} cell",
+        "1-to-2: |φ_M| on lower loop ≤ {:.4} cell; upper outer parts to lower loop ≤ {:.2e} cell; \
+         bisector |x| ≤ {:.2e} cell ({shared} shared points); tiling gap {:.2e} cell; \
+         {same} of {total} ∂M vertices identical on both sides",
         worst_phi / cell,
         worst_outer / cell,
         worst_bisector / cell,
@@ -199,7 +237,8 @@ fn one_to_two_ellipse_over_two_discs() {
     assert!(worst_phi < 0.3 * cell);
     assert!(worst_outer < 0.3 * cell);
     assert!(worst_bisector < 0.5 * cell);
-    assert!(union_gap < 0.5 * cell);
+    assert!(union_gap < 0.01 * cell);
+    assert!(same + 2 >= total, "{same} of {total} ∂M vertices shared");
     let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
     assert!((al - au).abs() < 0.002 * al, "areas {al} vs {au}");
 }
@@ -229,13 +268,18 @@ fn two_to_two_and_one_to_three_tile_the_same_mid_section() {
         check_loops_valid(&r);
         assert_eq!(loops(&r.lower).len(), a1.len(), "{name}: {:?}", r.warnings);
         assert_eq!(loops(&r.upper).len(), a2.len(), "{name}: {:?}", r.warnings);
-        let gap = tiling_gap(&r, cell);
+        let (gap, same, total) = tiling_gap_counts(&r, cell);
         let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
         eprintln!(
-            "{name}: tiling gap {:.4} cell, areas {al:.3} / {au:.3} mm²",
+            "{name}: tiling gap {:.2e} cell, areas {al:.4} / {au:.4} mm², {same} of {total} ∂M \
+             vertices identical on both sides",
             gap / cell
         );
-        assert!(gap < 0.5 * cell, "{name}: gap {gap}");
+        assert!(gap < 0.01 * cell, "{name}: gap {gap}");
+        assert!(
+            same + 2 >= total,
+            "{name}: {same} of {total} ∂M vertices shared"
+        );
         assert!((al - au).abs() < 0.003 * al, "{name}: areas {al} vs {au}");
     }
 }
@@ -359,9 +403,94 @@ proptest! {
         if r.warnings.is_empty() {
             let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
             prop_assert!((al - au).abs() < 0.01 * al.max(1.0), "areas {} vs {}", al, au);
+            // Usually 0 (every vertex on ∂M shared bit for bit): 190 of 191 of seeds 0..300
+            // without warnings, the other 0.06 cell (a corner the tracing gave up on).
             prop_assert!(tiling_gap(&r, cell) < 0.5 * cell);
         }
         // Deterministic: a second run is identical.
         prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);
     }
+}
+
+#[test]
+fn degenerate_inputs_do_not_panic() {
+    let cell = 0.2;
+    let disc = ellipse(0.0, 0.0, 5.0, 5.0, 100);
+    let line: Vec<Point> = vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
+    let dup: Vec<Point> = vec![[1.0, 1.0]; 5];
+    let mut cw = disc.clone();
+    cw.reverse();
+    for bad in [&line, &dup, &cw] {
+        if let Ok(r) = intermediate_contours(&[bad], &[&disc], cell) {
+            check_loops_valid(&r);
+            assert_eq!((r.lower.len(), r.upper.len()), (1, 1));
+        }
+        if let Ok(r) = intermediate_contours(&[&disc], &[bad, &disc], cell) {
+            check_loops_valid(&r);
+        }
+        let _ = cap(bad, &[], cell);
+        let _ = cap(&disc, &[bad], cell);
+    }
+    // Infinite coordinates and bad cells are refused (huge rasters are coarsened: see the
+    // unit test in branching.rs, a full-size raster is too slow for a debug test run).
+    let inf: Vec<Point> = vec![[0.0, 0.0], [f64::INFINITY, 0.0], [0.0, 1.0]];
+    assert!(intermediate_contours(&[&inf], &[&disc], cell).is_err());
+    assert!(cap(&inf, &[], cell).is_err());
+    assert!(cap(&disc, &[], f64::NAN).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 8,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// A random star-shaped plate with a random star-shaped hole closes like a torus: the
+    /// outer contour's cap and the hole's cap are one and the same ridge loop, lying in the
+    /// material, around the hole.
+    #[test]
+    fn random_annulus_caps_onto_one_ridge_loop(seed in any::<u64>()) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let cell = 0.15;
+        let outer = star(&mut rng, [0.0, 0.0], 12.0, 120);
+        let hx = rng.random_range(-1.0..1.0);
+        let mut hole = star(&mut rng, [hx, 0.0], 3.0, 60);
+        hole.reverse();
+        let c = cap(&outer, &[&hole], cell).unwrap();
+        let (Intermediate::Loop(o), Intermediate::Loop(h)) = (&c.outer, &c.holes[0]) else {
+            return Err(TestCaseError::fail(format!("expected loops: {:?}", c.warnings)));
+        };
+        prop_assert!(signed_area(o) > 0.0 && is_simple(o));
+        prop_assert_eq!(o, h);
+        prop_assert!(contains(o, [0.0, 0.0]) || contains(o, hole[0]));
+        for &p in o.iter() {
+            prop_assert!(contains(&outer, p) && !contains(&hole, p), "{:?} not in the material", p);
+        }
+    }
+}
+
+#[test]
+fn contour_splitting_below_the_mid_plane_keeps_the_largest_piece() {
+    // A long ellipse under two discs far apart at its ends: M is in two pieces, so the lower
+    // contour's zone (everything) meets M twice.
+    let cell = 0.15;
+    let lower = ellipse(0.0, 0.0, 30.0, 4.0, 400);
+    let left = ellipse(-24.0, 0.0, 5.0, 5.0, 200);
+    let right = ellipse(25.0, 0.0, 4.0, 4.0, 200);
+    let r = intermediate_contours(&[&lower], &[&left, &right], cell).unwrap();
+    check_loops_valid(&r);
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w.contains("lower contour 0") && w.contains("2 pieces")),
+        "{:?}",
+        r.warnings
+    );
+    let Intermediate::Loop(lo) = &r.lower[0] else {
+        panic!()
+    };
+    // The larger piece is the one over the larger disc.
+    assert!(contains(lo, [-24.0, 0.0]) && !contains(lo, [25.0, 0.0]));
+    assert!(loops(&r.upper).len() == 2);
 }

@@ -15,32 +15,60 @@
 //!   for the upper contours among themselves;
 //! - the intermediate contour of lower contour `i` is the boundary of `M ∩ zone_i`, extracted
 //!   by marching squares on `min(−φ_M, −ψ_i) ≥ 0`. So the lower intermediate contours tile
-//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges: a
-//!   sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit, so both loops cross each grid
-//!   edge at the same point (paper Fig. 4: c21's contour is `{e1, e2, e7, e6}`). The loops are
-//!   then compressed within a quarter cell with shared chains compressed identically.
+//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges (paper
+//!   Fig. 4: c21's contour is `{e1, e2, e7, e6}`).
+//!
+//! Making the shared edges identical, not just close:
+//! - a sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit (both come from the same
+//!   nearest-two distances), and an exact tie is given to one side only;
+//! - every crossing is recomputed from the field that really crosses its grid edge (marching
+//!   squares on a minimum would interpolate between the two fields near a junction), so both
+//!   sections' loops put the same point on `∂M` and both neighbours the same point on their
+//!   bisecting edge;
+//! - the corner where a bisecting edge meets `∂M` is put back (marching squares on the
+//!   minimum cuts it, across several cells where the two meet at a shallow angle): both zero
+//!   curves are followed cell by cell to the cell where they meet, the corner is solved there,
+//!   and both neighbours and the other section insert the same points;
+//! - loops are compressed (Douglas–Peucker within [`SIMPLIFY_TOL_CELLS`] = ¼ cell) run by run,
+//!   where a run is a chain of points owned by the same set of loops, so a shared chain is
+//!   compressed to the same points in every loop that owns it.
+//!
+//! In the tests every `∂M` vertex of one section's loops is a vertex of the other section's
+//! (1-to-2, 2-to-2, 1-to-3, 3-to-1), and over random star problems 190 of 191 are exact, the
+//! other within 0.06 cell (a corner whose tracing gave up: a saddle or more than 6 cells).
 //!
 //! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
-//! - `M ∩ zone_i` in several pieces: the largest piece is kept;
+//! - `M ∩ zone_i` in several pieces: the largest piece is kept. (This happens when a contour
+//!   really splits below the mid-plane, e.g. a long ellipse under two discs far apart at its
+//!   ends: `M` itself is in two pieces. The smaller piece is then covered by no intermediate
+//!   contour of that section; a caller that cares can add an intermediate level.)
 //! - a piece with holes (possible when `M` itself is annular): the holes are dropped;
 //! - `M ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
 //!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
 //! - `M` empty (no contour overlaps any other): every contour gets the point of largest
 //!   distance inside it (its cap, as the paper does for degeneracy);
-//! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit.
+//! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit;
+//! - contours of one section that overlap each other (the construction assumes disjoint
+//!   contours, as a compiled slice's outer boundaries are): a warning, and the result treats
+//!   the section as the nearest contour's signed distance, which is not the union's there.
 //!
 //! Invariants: deterministic (no hash-map order reaches the output; rayon only maps
 //! independent items in order), no panics on bad input (errors instead).
 
 use rayon::prelude::*;
 
-use super::distance_map::{bbox_of, signed_distance, validate_polygons, Grid};
+use super::distance_map::{
+    bbox_of, nearest_contours, signed_distance, validate_polygons, Grid, NearestContours,
+};
+use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
-use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
+use super::zones::{
+    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops,
+};
 use super::GeometryError;
 
-/// Largest raster used (samples). Peak memory is about 80 bytes per sample (distance
-/// transform buffers plus the two sections' nearest-three fields), so 8 M samples ≈ 650 MB.
+/// Largest raster used (samples). Peak memory is about 100 bytes per sample (two sections'
+/// distance transforms at once plus their nearest-contour fields), so 8 M samples ≈ 800 MB.
 pub const MAX_RASTER_CELLS: usize = 8 << 20;
 
 /// Samples of empty border around the contours' bounding box.
@@ -98,24 +126,6 @@ pub(crate) fn raster_for(
     )))
 }
 
-/// Nearest-three summary of the contours' signed distance fields. Fields are computed a few at
-/// a time in parallel and folded in label order, so memory stays bounded and ties resolve
-/// the same way every run.
-fn nearest(grid: &Grid, contours: &[&[Point]]) -> Nearest {
-    let mut near = Nearest::new(grid.len());
-    let batch = rayon::current_num_threads().max(1);
-    for (b, chunk) in contours.chunks(batch).enumerate() {
-        let fields: Vec<Vec<f32>> = chunk
-            .par_iter()
-            .map(|c| signed_distance(grid, &[c]))
-            .collect();
-        for (k, f) in fields.iter().enumerate() {
-            near.add((b * batch + k) as u32, f);
-        }
-    }
-    near
-}
-
 /// The point of largest distance inside a filled contour (its cap point).
 pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     let sd = signed_distance(grid, &[contour]);
@@ -124,7 +134,14 @@ pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     refine_innermost(&[contour], start, grid.cell_mm)
 }
 
-/// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2).
+/// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2), on a
+/// raster of `cell_mm` (coarsened with a warning past [`MAX_RASTER_CELLS`]). Holes are not
+/// part of a section here: a caller branching holes among themselves passes them reversed
+/// (as filled counter-clockwise contours).
+///
+/// Errors: an empty section ([`GeometryError::Empty`]), a contour with fewer than 3 points
+/// ([`GeometryError::Degenerate`]), a non-finite coordinate ([`GeometryError::NonFinite`]), a
+/// cell that is not a positive number ([`GeometryError::InvalidParameter`]).
 pub fn intermediate_contours(
     lower: &[&[Point]],
     upper: &[&[Point]],
@@ -151,12 +168,30 @@ pub fn intermediate_contours(
             }
         }
     }
+    // The construction takes a section as the union of its contours and needs them disjoint
+    // (the signed distance to the union is then the smallest of theirs).
+    for (name, set) in [("lower", lower), ("upper", upper)] {
+        for i in 0..set.len() {
+            for j in i + 1..set.len() {
+                let shared =
+                    overlap_area(&Region::filled(set[i]), &Region::filled(set[j]), cell_mm);
+                if shared > 0.0 {
+                    warnings.push(format!(
+                        "{name} contours {i} and {j} overlap ({shared:.4} mm²); the section is \
+                         expected to consist of disjoint contours"
+                    ));
+                }
+            }
+        }
+    }
     let all: Vec<&[Point]> = lower.iter().chain(upper.iter()).copied().collect();
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
     let cell = grid.cell_mm;
 
-    let near_lower = nearest(&grid, lower);
-    let near_upper = nearest(&grid, upper);
+    let (near_lower, near_upper) = rayon::join(
+        || nearest_contours(&grid, lower, true),
+        || nearest_contours(&grid, upper, true),
+    );
     // −φ_M: non-negative on the mid-section M. Since the contours of a section are disjoint,
     // the signed distance to their union is the smallest of their signed distances.
     let neg_phi: Vec<f32> = near_lower
@@ -175,7 +210,7 @@ pub fn intermediate_contours(
     }
 
     // Each contour's zone within M, extracted as loops.
-    let jobs: Vec<(&str, usize, &Nearest)> = (0..lower.len())
+    let jobs: Vec<(&str, usize, &NearestContours)> = (0..lower.len())
         .map(|i| ("lower", i, &near_lower))
         .chain((0..upper.len()).map(|i| ("upper", i, &near_upper)))
         .collect();
@@ -186,15 +221,15 @@ pub fn intermediate_contours(
             if m_empty {
                 return (None, notes);
             }
-            let field: Vec<f32> = (0..grid.len())
-                .map(|k| (neg_phi[k] as f64).min(near.neg_psi(i as u32, k)) as f32)
-                .collect();
-            let loops = world_loops(&grid, &field);
+            // Rounded as the f32 field is, so every step sees what marching squares saw.
+            let g = |k: usize| neg_phi[k] as f64;
+            let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
+            let loops = zone_loops(&grid, &g, &n);
             let (best, count, total) = largest_loop(&loops, true);
             let Some(b) = best else {
                 return (None, notes);
             };
-            let chosen = loops[b].clone();
+            let chosen = insert_junctions(&loops[b], &grid, &g, &n);
             if count > 1 {
                 notes.push(format!(
                     "{name} contour {i}: its zone meets the mid-section in {count} pieces; kept \

@@ -25,9 +25,9 @@
 //! input.
 
 use super::branching::{raster_for, Intermediate, SIMPLIFY_TOL_CELLS};
-use super::distance_map::{inside_mask, unsigned_distance, validate_polygons, Grid};
+use super::distance_map::{inside_mask, nearest_contours, validate_polygons, Grid};
 use super::polygon::{signed_area, Point};
-use super::zones::{largest_loop, refine_innermost, simplify_shared, world_loops, Nearest};
+use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops};
 use super::GeometryError;
 
 /// The caps of one region: the outer contour's and each hole's, in input order.
@@ -56,10 +56,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
 
     // Zones among the boundary contours, by unsigned distance within the material.
-    let mut near = Nearest::new(grid.len());
-    for (k, c) in all.iter().enumerate() {
-        near.add(k as u32, &unsigned_distance(&grid, &[c]));
-    }
+    let near = nearest_contours(&grid, &all, false);
     let material = inside_mask(&grid, &all);
     // Depth in the material: positive inside, negative outside (−signed distance).
     let neg_sdm: Vec<f32> = near
@@ -84,15 +81,14 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     }
 
     // Zone loops: label 0 is the outer contour, label h + 1 hole h.
-    let zone_loops = |label: u32| {
-        let field: Vec<f32> = (0..grid.len())
-            .map(|k| (neg_sdm[k] as f64).min(near.neg_psi(label, k)) as f32)
-            .collect();
-        world_loops(&grid, &field)
+    let zone_loops_of = |label: u32| {
+        let g = |k: usize| neg_sdm[k] as f64;
+        let n = |k: usize| neg_psi(&near, label, k) as f32 as f64;
+        zone_loops(&grid, &g, &n)
     };
     let mut chosen: Vec<Option<Vec<Point>>> = Vec::with_capacity(all.len());
     for label in 0..all.len() {
-        let loops = zone_loops(label as u32);
+        let loops = zone_loops_of(label as u32);
         // The outer contour's zone is bounded inside by the ridge (a clockwise hole loop of
         // its zone region); a hole's zone outside by the ridge (counter-clockwise).
         let want_ccw = label > 0;
@@ -139,7 +135,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let mut caps = caps.into_iter();
     let outer_cap = caps
         .next()
-        .unwrap_or(Intermediate::Point(innermost(&grid, &all, &neg_sdm)));
+        .unwrap_or_else(|| Intermediate::Point(innermost(&grid, &all, &neg_sdm)));
     Ok(Caps {
         outer: outer_cap,
         holes: caps.collect(),

@@ -1,5 +1,6 @@
 //! The planar geometry kernel: polygons, marching squares, polygon compression, input
-//! compilation of a slice, distance maps. Pure: no I/O, no channels, no DICOM types.
+//! compilation of a slice, distance maps, correspondence by overlap, intermediate contours of
+//! branching problems and caps. Pure: no I/O, no channels, no DICOM types.
 
 pub mod alignment;
 pub mod branching;

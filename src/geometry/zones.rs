@@ -2,8 +2,8 @@
 //! to one contour than to the others, bounded by the bisecting edges), extraction of zone
 //! loops at sub-pixel precision, and a compression that keeps shared bisecting edges shared.
 //!
-//! In: per-contour distance fields on one [`Grid`]. Out: the nearest-three summary of those
-//! fields, zone fields whose zero level is the bisecting edge, world-space loops, and
+//! In: the nearest-contours summary of a contour set on one [`Grid`]. Out: zone fields whose
+//! zero level is the bisecting edge, world-space loops, and
 //! compressed loops in which every chain shared by two loops is compressed identically.
 //!
 //! Invariant that makes the shared edges exact: for a sample whose two nearest contours are
@@ -13,89 +13,120 @@
 
 use std::collections::HashMap;
 
-use super::distance_map::Grid;
+use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
 use super::polygon::{is_simple, point_segment_distance, signed_area, Point};
 use super::simplify::simplify_closed;
-
-/// For every sample, the three smallest of the contours' distances, with the contours that
-/// realise the two smallest (ties go to the lower label).
-pub(crate) struct Nearest {
-    pub min1: Vec<f32>,
-    pub label1: Vec<u32>,
-    pub min2: Vec<f32>,
-    pub label2: Vec<u32>,
-    pub min3: Vec<f32>,
-}
-
-pub(crate) const NO_LABEL: u32 = u32::MAX;
 
 /// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
 /// level as inside, so an exact tie between two zones must be inside exactly one of them (and
 /// `−0.0 == 0.0`, so a signed zero would not do). Representable in `f32`.
 const TIE: f64 = 1e-30;
 
-impl Nearest {
-    pub fn new(len: usize) -> Self {
-        Nearest {
-            min1: vec![f32::INFINITY; len],
-            label1: vec![NO_LABEL; len],
-            min2: vec![f32::INFINITY; len],
-            label2: vec![NO_LABEL; len],
-            min3: vec![f32::INFINITY; len],
-        }
-    }
-
-    /// Fold in the distance field of contour `label` (labels must be added in increasing
-    /// order for ties to be deterministic).
-    pub fn add(&mut self, label: u32, d: &[f32]) {
-        for (k, &v) in d.iter().enumerate() {
-            if v < self.min1[k] {
-                self.min3[k] = self.min2[k];
-                self.min2[k] = self.min1[k];
-                self.label2[k] = self.label1[k];
-                self.min1[k] = v;
-                self.label1[k] = label;
-            } else if v < self.min2[k] {
-                self.min3[k] = self.min2[k];
-                self.min2[k] = v;
-                self.label2[k] = label;
-            } else if v < self.min3[k] {
-                self.min3[k] = v;
-            }
-        }
-    }
-
-    /// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
-    /// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the
-    /// two nearest contours, which is where the zone boundary runs except in cells where
-    /// three zones meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used. An exact tie
-    /// goes to the nearest label. A lone contour's zone is everything (`+∞`).
-    pub fn neg_psi(&self, i: u32, k: usize) -> f64 {
-        let (d1, d2) = (self.min1[k] as f64, self.min2[k] as f64);
-        if self.label1[k] == i {
-            let v = d2 - d1;
-            if v == 0.0 {
-                TIE
-            } else {
-                v
-            }
-        } else if self.label2[k] == i {
-            let v = d1 - d2;
-            if v == 0.0 {
-                -TIE
-            } else {
-                v
-            }
+/// `−ψ_i` at sample `k`, where `ψ_i = d_i − min_{j≠i} d_j` is negative inside the zone of
+/// contour `i` (the zone's boundary is the bisecting edge). Exact where `i` is one of the two
+/// nearest contours, which is where the zone boundary runs except in cells where three zones
+/// meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used (`−∞` when no other contour
+/// is near, which marching squares counts as outside). An exact tie goes to the nearer
+/// label. A zone with no neighbour is everything (`+∞`).
+pub(crate) fn neg_psi(near: &NearestContours, i: u32, k: usize) -> f64 {
+    let (d1, d2) = (near.min1[k] as f64, near.min2[k] as f64);
+    if near.label1[k] == i {
+        let v = d2 - d1;
+        if v == 0.0 {
+            TIE
         } else {
-            -(self.min3[k] as f64 - d1).max(TIE)
+            v
         }
+    } else if near.label2[k] == i {
+        let v = d1 - d2;
+        if v == 0.0 {
+            -TIE
+        } else {
+            v
+        }
+    } else {
+        -(near.min3[k] as f64 - d1).max(TIE)
     }
 }
 
-/// Zero-level loops of `field` (inside = `≥ 0`), in world coordinates.
-pub(crate) fn world_loops(grid: &Grid, field: &[f32]) -> Vec<Vec<Point>> {
-    iso_loops(field, grid.width, grid.height, 0.0)
+/// Same clamp as marching squares: crossings stay a hair away from the samples.
+const T_MARGIN: f64 = 1e-4;
+
+/// Zero-level loops of `min(g, n)` (inside = `≥ 0`) in world coordinates, with every crossing
+/// placed on the field that really crosses there.
+///
+/// Marching squares on the sampled `min(g, n)` interpolates, on a grid edge whose ends take
+/// the minimum from different fields, between a value of `g` and a value of `n`: near the
+/// corner where the two zero sets meet the crossing then lies on neither. Each crossing is
+/// recomputed here from the two fields' own linear interpolants along its edge (the exit of
+/// `{g ≥ 0} ∩ {n ≥ 0}`), parameterised from the edge's first sample so that a neighbour whose
+/// `n` is negated gets the same point bit for bit, and a loop of the other section (same `g`)
+/// gets the same point on the mid-section boundary. The topology is marching squares' own.
+/// `g` and `n` must return the values as rounded into the `f32` field.
+pub(crate) fn zone_loops(
+    grid: &Grid,
+    g: &(dyn Fn(usize) -> f64 + Sync),
+    n: &(dyn Fn(usize) -> f64 + Sync),
+) -> Vec<Vec<Point>> {
+    let (w, h) = (grid.width, grid.height);
+    let field: Vec<f32> = (0..grid.len()).map(|k| g(k).min(n(k)) as f32).collect();
+    let mut loops = iso_loops(&field, w, h, 0.0);
+    for lp in loops.iter_mut() {
+        for p in lp.iter_mut() {
+            // The edge the crossing lies on: one pixel coordinate is an exact integer.
+            let (a, b, horizontal) = if p[1].fract() == 0.0 && p[0].fract() != 0.0 {
+                let (r, c) = (p[1], p[0].floor());
+                if r < 0.0 || c < 0.0 || r >= h as f64 || c + 1.0 >= w as f64 {
+                    continue;
+                }
+                let k = r as usize * w + c as usize;
+                (k, k + 1, true)
+            } else if p[0].fract() == 0.0 && p[1].fract() != 0.0 {
+                let (r, c) = (p[1].floor(), p[0]);
+                if r < 0.0 || c < 0.0 || r + 1.0 >= h as f64 || c >= w as f64 {
+                    continue;
+                }
+                let k = r as usize * w + c as usize;
+                (k, k + w, false)
+            } else {
+                continue;
+            };
+            let (ga, gb, na, nb) = (g(a), g(b), n(a), n(b));
+            let inside_a = ga.min(na) >= 0.0;
+            if inside_a == (gb.min(nb) >= 0.0) || !(ga.is_finite() && gb.is_finite()) {
+                continue;
+            }
+            // Zero of one field along the edge, from sample a; only where it changes sign.
+            let zero = |fa: f64, fb: f64| {
+                ((fa >= 0.0) != (fb >= 0.0) && fa.is_finite() && fb.is_finite())
+                    .then(|| fa / (fa - fb))
+            };
+            let (tg, tn) = (zero(ga, gb), zero(na, nb));
+            let t = if inside_a {
+                // Leaving the region: the first field to go negative.
+                match (tg.filter(|_| gb < 0.0), tn.filter(|_| nb < 0.0)) {
+                    (Some(x), Some(y)) => x.min(y),
+                    (Some(x), None) | (None, Some(x)) => x,
+                    (None, None) => continue,
+                }
+            } else {
+                // Entering it: the last field to become non-negative.
+                match (tg.filter(|_| ga < 0.0), tn.filter(|_| na < 0.0)) {
+                    (Some(x), Some(y)) => x.max(y),
+                    (Some(x), None) | (None, Some(x)) => x,
+                    (None, None) => continue,
+                }
+            };
+            let t = t.clamp(T_MARGIN, 1.0 - T_MARGIN);
+            if horizontal {
+                p[0] = p[0].floor() + t;
+            } else {
+                p[1] = p[1].floor() + t;
+            }
+        }
+    }
+    loops
         .into_iter()
         .map(|lp| lp.into_iter().map(|p| grid.to_world(p)).collect())
         .collect()
@@ -233,6 +264,281 @@ pub(crate) fn simplify_shared(loops: &[Vec<Point>], tol: f64) -> Vec<Vec<Point>>
             lp.clone()
         })
         .collect()
+}
+
+/// Bilinear interpolation in a grid cell: corners `[v(r, c), v(r, c+1), v(r+1, c), v(r+1, c+1)]`
+/// at local coordinates `(u, v)` in `[0, 1]²`, with its gradient. Written so that negating
+/// the corners negates every result bit for bit.
+fn bilinear(f: [f64; 4], u: f64, v: f64) -> (f64, f64, f64) {
+    let val =
+        f[0] * (1.0 - u) * (1.0 - v) + f[1] * u * (1.0 - v) + f[2] * (1.0 - u) * v + f[3] * u * v;
+    let du = (f[1] - f[0]) * (1.0 - v) + (f[3] - f[2]) * v;
+    let dv = (f[2] - f[0]) * (1.0 - u) + (f[3] - f[1]) * u;
+    (val, du, dv)
+}
+
+/// The four sides of a grid cell.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Side {
+    Top,
+    Bottom,
+    Left,
+    Right,
+}
+
+const SIDES: [Side; 4] = [Side::Top, Side::Right, Side::Bottom, Side::Left];
+
+/// What following a zero curve found: the crossings passed, the cell it stopped in, and the
+/// junction with the other curve there (when looking for one).
+type Followed = (Vec<Point>, (usize, usize), Option<Point>);
+
+/// Walking the zero curves of two sampled fields cell by cell, with crossings placed exactly
+/// as [`zone_loops`] places them (so they coincide bit for bit with other loops' vertices).
+struct Tracer<'a> {
+    grid: &'a Grid,
+    g: &'a (dyn Fn(usize) -> f64 + Sync),
+    n: &'a (dyn Fn(usize) -> f64 + Sync),
+}
+
+impl Tracer<'_> {
+    fn field(&self, on_g: bool, k: usize) -> f64 {
+        if on_g {
+            (self.g)(k)
+        } else {
+            (self.n)(k)
+        }
+    }
+
+    /// End samples of a side of cell (c, r), first sample first (left or top end).
+    fn side_samples(&self, c: usize, r: usize, side: Side) -> (usize, usize) {
+        let w = self.grid.width;
+        match side {
+            Side::Top => (r * w + c, r * w + c + 1),
+            Side::Bottom => ((r + 1) * w + c, (r + 1) * w + c + 1),
+            Side::Left => (r * w + c, (r + 1) * w + c),
+            Side::Right => (r * w + c + 1, (r + 1) * w + c + 1),
+        }
+    }
+
+    /// Pixel position of the field's zero on a side, if the field changes sign there.
+    fn crossing(&self, on_g: bool, c: usize, r: usize, side: Side) -> Option<Point> {
+        let (a, b) = self.side_samples(c, r, side);
+        let (fa, fb) = (self.field(on_g, a), self.field(on_g, b));
+        if !(fa.is_finite() && fb.is_finite()) || (fa >= 0.0) == (fb >= 0.0) {
+            return None;
+        }
+        let t = (fa / (fa - fb)).clamp(T_MARGIN, 1.0 - T_MARGIN);
+        let (c, r) = (c as f64, r as f64);
+        Some(match side {
+            Side::Top => [c + t, r],
+            Side::Bottom => [c + t, r + 1.0],
+            Side::Left => [c, r + t],
+            Side::Right => [c + 1.0, r + t],
+        })
+    }
+
+    /// The side of cell (c, r) a pixel point lies on, if any (up to the rounding of the
+    /// world ↔ pixel round trip).
+    fn side_of(c: usize, r: usize, p: Point) -> Option<Side> {
+        const EPS: f64 = 1e-7;
+        let (u, v) = (p[0] - c as f64, p[1] - r as f64);
+        let along = |t: f64| t > 0.0 && t < 1.0;
+        if v.abs() < EPS && along(u) {
+            Some(Side::Top)
+        } else if (v - 1.0).abs() < EPS && along(u) {
+            Some(Side::Bottom)
+        } else if u.abs() < EPS && along(v) {
+            Some(Side::Left)
+        } else if (u - 1.0).abs() < EPS && along(v) {
+            Some(Side::Right)
+        } else {
+            None
+        }
+    }
+
+    /// Corner values of both fields in cell (c, r), if all finite.
+    fn cell(&self, c: usize, r: usize) -> Option<([f64; 4], [f64; 4])> {
+        let w = self.grid.width;
+        let k = [
+            r * w + c,
+            r * w + c + 1,
+            (r + 1) * w + c,
+            (r + 1) * w + c + 1,
+        ];
+        let gv = [
+            (self.g)(k[0]),
+            (self.g)(k[1]),
+            (self.g)(k[2]),
+            (self.g)(k[3]),
+        ];
+        let nv = [
+            (self.n)(k[0]),
+            (self.n)(k[1]),
+            (self.n)(k[2]),
+            (self.n)(k[3]),
+        ];
+        gv.iter()
+            .chain(&nv)
+            .all(|v| v.is_finite())
+            .then_some((gv, nv))
+    }
+
+    /// Where both zero curves meet in cell (c, r), in pixel coordinates.
+    fn junction(&self, c: usize, r: usize) -> Option<Point> {
+        let (gv, nv) = self.cell(c, r)?;
+        let mixed = |f: &[f64; 4]| f.iter().any(|&v| v >= 0.0) && f.iter().any(|&v| v < 0.0);
+        if !(mixed(&gv) && mixed(&nv)) {
+            return None;
+        }
+        let (u, v) = solve_corner(gv, nv)?;
+        Some([c as f64 + u, r as f64 + v])
+    }
+
+    /// Follow one field's zero curve from the crossing `p` on a side of cell (c, r) into that
+    /// cell and on, cell by cell, collecting the crossings passed, until a cell holding a
+    /// junction with the other field (returned with its cell) or `stop` cell is reached.
+    /// Gives up after a few cells, at a saddle, or at the raster's edge.
+    fn follow(
+        &self,
+        on_g: bool,
+        start: (usize, usize),
+        p: Point,
+        stop: Option<(usize, usize)>,
+    ) -> Option<Followed> {
+        let (w, h) = (self.grid.width, self.grid.height);
+        let (mut c, mut r) = start;
+        let mut entry = Self::side_of(c, r, p)?;
+        let mut path = Vec::new();
+        for _ in 0..6 {
+            if stop == Some((c, r)) {
+                return Some((path, (c, r), None));
+            }
+            if stop.is_none() {
+                if let Some(j) = self.junction(c, r) {
+                    return Some((path, (c, r), Some(j)));
+                }
+            }
+            let exits: Vec<Side> = SIDES
+                .iter()
+                .copied()
+                .filter(|&s| s != entry && self.crossing(on_g, c, r, s).is_some())
+                .collect();
+            let [exit] = exits[..] else {
+                return None;
+            };
+            path.push(self.crossing(on_g, c, r, exit)?);
+            let (nc, nr, ne) = match exit {
+                Side::Top if r > 0 => (c, r - 1, Side::Bottom),
+                Side::Bottom if r + 2 < h => (c, r + 1, Side::Top),
+                Side::Left if c > 0 => (c - 1, r, Side::Right),
+                Side::Right if c + 2 < w => (c + 1, r, Side::Left),
+                _ => return None,
+            };
+            (c, r, entry) = (nc, nr, ne);
+        }
+        None
+    }
+}
+
+/// Marching squares cuts the corner where two zero sets meet (where the mid-section's
+/// boundary meets a bisecting edge): the loop of `min(g, n)` jumps from a crossing of one
+/// field straight to a crossing of the other, and where the two meet at a shallow angle the
+/// cut can skip whole cells whose samples all lie outside. Put the corner back: for each loop
+/// edge whose ends lie on different fields, follow the first end's zero curve cell by cell
+/// (collecting its crossings) to the cell where the two curves meet, solve `g = n = 0` there
+/// for the bilinear interpolants (Newton from the cell centre), then follow the second end's
+/// zero curve back from that end to the same cell. Crossings are placed as [`zone_loops`]
+/// places them and the corner is odd in `n`, so the loop across the bisecting edge and the
+/// other section's loops get the same points bit for bit. The loop is returned unchanged if
+/// the result would not be simple.
+pub(crate) fn insert_junctions(
+    lp: &[Point],
+    grid: &Grid,
+    g: &(dyn Fn(usize) -> f64 + Sync),
+    n: &(dyn Fn(usize) -> f64 + Sync),
+) -> Vec<Point> {
+    let (w, h) = (grid.width, grid.height);
+    if w < 2 || h < 2 {
+        return lp.to_vec();
+    }
+    let tracer = Tracer { grid, g, n };
+    // Whether a loop vertex (pixel) is a zero of g rather than n: the one nearer zero along
+    // its grid edge.
+    let on_g = |c: usize, r: usize, x: Point| -> Option<bool> {
+        let (gv, nv) = tracer.cell(c, r)?;
+        let (u, v) = (x[0] - c as f64, x[1] - r as f64);
+        Some(bilinear(gv, u, v).0.abs() <= bilinear(nv, u, v).0.abs())
+    };
+    let len = lp.len();
+    let mut out = Vec::with_capacity(len + 8);
+    let mut inserted = false;
+    for i in 0..len {
+        let (p, q) = (lp[i], lp[(i + 1) % len]);
+        out.push(p);
+        let (pp, qp) = (grid.to_pixel(p), grid.to_pixel(q));
+        // The cell the segment p → q crosses (marching squares keeps segments in one cell).
+        let mid = [0.5 * (pp[0] + qp[0]), 0.5 * (pp[1] + qp[1])];
+        let (cf, rf) = (mid[0].floor(), mid[1].floor());
+        if !(cf >= 0.0 && rf >= 0.0 && cf < (w - 1) as f64 && rf < (h - 1) as f64) {
+            continue;
+        }
+        let cell = (cf as usize, rf as usize);
+        let (Some(p_on_g), Some(q_on_g)) = (on_g(cell.0, cell.1, pp), on_g(cell.0, cell.1, qp))
+        else {
+            continue;
+        };
+        if p_on_g == q_on_g {
+            continue;
+        }
+        // Forward along p's curve to the junction, backward along q's curve to its cell.
+        let Some((ahead, jcell, Some(j))) = tracer.follow(p_on_g, cell, pp, None) else {
+            continue;
+        };
+        let Some((mut back, _, _)) = tracer.follow(q_on_g, cell, qp, Some(jcell)) else {
+            continue;
+        };
+        back.reverse();
+        let added: Vec<Point> = ahead
+            .into_iter()
+            .chain(std::iter::once(j))
+            .chain(back)
+            .map(|x| grid.to_world(x))
+            .filter(|&x| x != p && x != q)
+            .collect();
+        inserted |= !added.is_empty();
+        out.extend(added);
+    }
+    if inserted && !is_simple(&out) {
+        return lp.to_vec();
+    }
+    out
+}
+
+/// The point of the cell `[0, 1]²` where both bilinear interpolants vanish, by Newton from
+/// the centre (odd in `n`: negating `n` gives the same point bit for bit). Points on the
+/// cell's sides count (a bisecting edge through a row of samples, as symmetric input gives).
+fn solve_corner(gv: [f64; 4], nv: [f64; 4]) -> Option<(f64, f64)> {
+    let (mut u, mut v) = (0.5, 0.5);
+    for _ in 0..20 {
+        let (gf, gu, gvv) = bilinear(gv, u, v);
+        let (nf, nu, nvv) = bilinear(nv, u, v);
+        let det = gu * nvv - gvv * nu;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let du = (-gf * nvv + nf * gvv) / det;
+        let dv = (-nf * gu + gf * nu) / det;
+        u += du;
+        v += dv;
+        if !(u.is_finite() && v.is_finite()) || u.abs() > 4.0 || v.abs() > 4.0 {
+            return None;
+        }
+        if du.abs() + dv.abs() < 1e-12 {
+            let inside = |t: f64| (-1e-9..=1.0 + 1e-9).contains(&t);
+            return (inside(u) && inside(v)).then(|| (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)));
+        }
+    }
+    None
 }
 
 /// Distance from `p` to the nearest boundary of the polygon set.
