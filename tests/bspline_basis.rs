@@ -1,6 +1,8 @@
 //! Knot vectors, basis functions, closed-curve evaluation and point distance, checked against
 //! independent references (Cox–de Boor sums, finite differences, brute-force sampling).
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -39,16 +41,21 @@ fn periodic_knots_validate_and_extend() {
     assert_eq!(&e[..3], &[2.0 - 5.0, 2.5 - 5.0, 3.5 - 5.0]);
     assert_eq!(&e[9..], &[5.5, 7.0, 7.5]);
     let msg = |r: Result<PeriodicKnotVector, BsplineError>| r.unwrap_err().to_string();
-    assert!(msg(PeriodicKnotVector::try_new(&[0.0, 1.0, 2.0, 3.0])).contains("got 4 domain knots, expected at least 5"));
+    assert!(msg(PeriodicKnotVector::try_new(&[0.0, 1.0, 2.0, 3.0]))
+        .contains("got 4 domain knots, expected at least 5"));
     assert!(msg(PeriodicKnotVector::try_new(&[0.0, 2.0, 1.0, 3.0, 4.0])).contains("ξ_1 = 2"));
     assert!(msg(PeriodicKnotVector::try_new(&[0.0, 1.0, f64::NAN, 3.0, 4.0])).contains("NaN"));
-    assert!(msg(PeriodicKnotVector::try_new(&[0.0, 1.0, 2.0, 3.0, 7.0])).contains("expected [0, 4]"));
+    assert!(
+        msg(PeriodicKnotVector::try_new(&[0.0, 1.0, 2.0, 3.0, 7.0])).contains("expected [0, 4]")
+    );
 }
 
 #[test]
 fn clamped_knots_validate() {
     assert!(ClampedKnotVector::try_new(&[0., 0., 0., 0., 1., 2., 2., 2., 2.]).is_ok());
-    let e = ClampedKnotVector::try_new(&[0., 0., 0., 0., 1., 1., 1.]).unwrap_err().to_string();
+    let e = ClampedKnotVector::try_new(&[0., 0., 0., 0., 1., 1., 1.])
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("got 7 knots, expected at least 8"), "{e}");
     assert!(ClampedKnotVector::try_new(&[0., 0., 0., 0.5, 1., 2., 2., 2., 2.]).is_err());
     assert!(ClampedKnotVector::try_new(&[0., 0., 0., 0., 1.5, 1., 2., 2., 2., 2.]).is_err());
@@ -58,11 +65,16 @@ fn clamped_knots_validate() {
 #[test]
 fn closed_curve_rejects_wrong_counts_and_nan() {
     let k = PeriodicKnotVector::uniform(5).unwrap();
-    let e = ClosedCurve::try_new(k.clone(), vec![[0.0, 0.0]; 4]).unwrap_err().to_string();
+    let e = ClosedCurve::try_new(k.clone(), vec![[0.0, 0.0]; 4])
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("got 4 control points, expected 5"), "{e}");
     let mut c = vec![[1.0, 0.0]; 5];
     c[2][1] = f64::NAN;
-    assert!(matches!(ClosedCurve::try_new(k, c), Err(BsplineError::NonFinite(_))));
+    assert!(matches!(
+        ClosedCurve::try_new(k, c),
+        Err(BsplineError::NonFinite(_))
+    ));
 }
 
 proptest! {

@@ -1,6 +1,8 @@
 //! Algorithm 2: every curve of a region on one knot vector within tolerance, caps, CLIST,
 //! the unmeetable case.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -43,7 +45,9 @@ proptest! {
 /// knot vector (which is the one of the same region without caps).
 #[test]
 fn caps_at_both_ends() {
-    let body: Vec<Vec<[f64; 3]>> = (0..3).map(|k| lift(&star(120, 20.0, 0.0, 7 + k), 1.0 + k as f64)).collect();
+    let body: Vec<Vec<[f64; 3]>> = (0..3)
+        .map(|k| lift(&star(120, 20.0, 0.0, 7 + k), 1.0 + k as f64))
+        .collect();
     let mut with_caps = vec![vec![[0.5, 0.2, 0.0]]];
     with_caps.extend(body.iter().cloned());
     // A zero-length contour (all points equal) counts as a cap.
@@ -64,13 +68,19 @@ fn cap_in_the_middle_or_only_caps_is_an_error() {
     let o = FitOptions::new(0.05);
     let c = lift(&circle(40, 5.0), 0.0);
     let e = fit_common(&[c.clone(), vec![[0.0, 0.0, 1.0]], c.clone()], &o).unwrap_err();
-    assert!(e.to_string().contains("contour 1 of 3 is a single point"), "{e}");
+    assert!(
+        e.to_string().contains("contour 1 of 3 is a single point"),
+        "{e}"
+    );
     assert!(fit_common(&[vec![[0.0; 3]], vec![[1.0; 3]]], &o).is_err());
     assert!(fit_common::<3>(&[], &o).is_err());
     let mut bad = c.clone();
     bad[3][0] = f64::INFINITY;
     let e = fit_common(&[c.clone(), bad], &o).unwrap_err();
-    assert!(matches!(e, BsplineError::NonFinite(_)) && e.to_string().contains("contour 1 of 2"), "{e}");
+    assert!(
+        matches!(e, BsplineError::NonFinite(_)) && e.to_string().contains("contour 1 of 2"),
+        "{e}"
+    );
     let e = fit_common(&[c, vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]], &o).unwrap_err();
     assert!(e.to_string().contains("contour 1 of 2"), "{e}");
 }
@@ -84,10 +94,18 @@ fn unmeetable_tolerance_reports_instead_of_failing() {
     let coarse = lift(&star(12, 20.0, 0.0, 4), 1.0);
     let tol = 1e-4;
     let f = fit_common(&[coarse, dense], &FitOptions::new(tol)).unwrap();
-    eprintln!("n+1 = {}, met = {}, errors = {:?}", f.knots.n_control(), f.met, f.max_errors);
+    eprintln!(
+        "n+1 = {}, met = {}, errors = {:?}",
+        f.knots.n_control(),
+        f.met,
+        f.max_errors
+    );
     assert_eq!(f.met, f.max_errors.iter().all(|&e| e <= tol));
     for (k, c) in f.curves.iter().enumerate() {
-        let d = f.points[k].iter().map(|p| c.distance_to(p).0).fold(0.0, f64::max);
+        let d = f.points[k]
+            .iter()
+            .map(|p| c.distance_to(p).0)
+            .fold(0.0, f64::max);
         assert!((d - f.max_errors[k]).abs() < 1e-9);
     }
     // The coarse contour is interpolated or nearly so.

@@ -1,6 +1,8 @@
 //! Fitting one contour and Algorithm 1: tolerance by true distance, exact interpolation, valid
 //! knots, C² seam, known counts for a circle and an ellipse, degenerate input.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -118,7 +120,10 @@ fn circle_needs_the_predicted_control_points() {
         let f = fit_fewest(&pts, &FitOptions::new(tol)).unwrap();
         assert!(f.met);
         let n = f.n_control();
-        assert!(n >= expect && n <= expect + 1, "tol {tol}: got {n} control points, predicted {expect}");
+        assert!(
+            n >= expect && n <= expect + 1,
+            "tol {tol}: got {n} control points, predicted {expect}"
+        );
         assert!(max_true_distance(&f.curve, &pts) <= tol);
     }
 }
@@ -145,13 +150,22 @@ fn degenerate_inputs_are_errors() {
     let e = fit_fewest(&three, &o).unwrap_err();
     assert!(e.to_string().contains("3 distinct points"), "{e}");
     let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64]).collect();
-    assert!(fit_fewest(&line, &o).unwrap_err().to_string().contains("collinear"));
+    assert!(fit_fewest(&line, &o)
+        .unwrap_err()
+        .to_string()
+        .contains("collinear"));
     let same = vec![[1.0, 1.0]; 10];
-    assert!(matches!(fit_fewest(&same, &o), Err(BsplineError::Degenerate(_))));
+    assert!(matches!(
+        fit_fewest(&same, &o),
+        Err(BsplineError::Degenerate(_))
+    ));
     let mut nan = circle(20, 5.0);
     nan[7][1] = f64::NAN;
     let e = fit_fewest(&nan, &o).unwrap_err();
-    assert!(matches!(e, BsplineError::NonFinite(_)) && e.to_string().contains("point 7"), "{e}");
+    assert!(
+        matches!(e, BsplineError::NonFinite(_)) && e.to_string().contains("point 7"),
+        "{e}"
+    );
     assert!(fit_fewest(&Vec::<[f64; 2]>::new(), &o).is_err());
     assert!(fit_fewest(&circle(20, 5.0), &FitOptions::new(f64::NAN)).is_err());
     assert!(fit_fewest(&circle(20, 5.0), &FitOptions::new(-1.0)).is_err());
@@ -173,7 +187,14 @@ fn repeated_points_are_deduplicated() {
 /// Three-dimensional contours (the pipeline's D = 3): a tilted circle.
 #[test]
 fn fits_in_three_dimensions() {
-    let pts: Vec<[f64; 3]> = circle(100, 10.0).iter().map(|p| [p[0], p[1] * 0.6, p[1] * 0.8 + 5.0]).collect();
+    let pts: Vec<[f64; 3]> = circle(100, 10.0)
+        .iter()
+        .map(|p| [p[0], p[1] * 0.6, p[1] * 0.8 + 5.0])
+        .collect();
     let f = fit_fewest(&pts, &FitOptions::new(0.01)).unwrap();
-    assert!(f.met && (7..=8).contains(&f.n_control()), "{}", f.n_control());
+    assert!(
+        f.met && (7..=8).contains(&f.n_control()),
+        "{}",
+        f.n_control()
+    );
 }

@@ -1,6 +1,8 @@
 //! Skinning: the surface reproduces each curve at its v̄_k, meets the end-tangent conditions,
 //! closes smoothly onto caps; partials and the closest point against references.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -12,7 +14,12 @@ fn region(sizes: &[usize], seed: u64, caps: (bool, bool)) -> (Vec<ClosedCurve<3>
     let mut contours: Vec<Vec<[f64; 3]>> = sizes
         .iter()
         .enumerate()
-        .map(|(k, &m)| lift(&star(m, 20.0 + 2.0 * (k as f64).sin(), 0.02, seed + k as u64), 3.0 * (k + 1) as f64))
+        .map(|(k, &m)| {
+            lift(
+                &star(m, 20.0 + 2.0 * (k as f64).sin(), 0.02, seed + k as u64),
+                3.0 * (k + 1) as f64,
+            )
+        })
         .collect();
     if caps.0 {
         contours.insert(0, vec![[0.3, -0.2, 1.5]]);
@@ -28,7 +35,9 @@ fn region(sizes: &[usize], seed: u64, caps: (bool, bool)) -> (Vec<ClosedCurve<3>
 fn sv_start_expected(curves: &[ClosedCurve<3>], vb: &[f64], i: usize, end: bool) -> [f64; 3] {
     let r = curves.len() - 1;
     let b = |k: usize| curves[k].control()[i];
-    let sub = |a: [f64; 3], c: [f64; 3], h: f64| -> [f64; 3] { std::array::from_fn(|x| (a[x] - c[x]) / h) };
+    let sub = |a: [f64; 3], c: [f64; 3], h: f64| -> [f64; 3] {
+        std::array::from_fn(|x| (a[x] - c[x]) / h)
+    };
     if r == 1 {
         return sub(b(1), b(0), vb[1] - vb[0]);
     }
@@ -154,8 +163,14 @@ fn caps_close_smoothly() {
         assert!(dist(&s.eval(u, r), &[-0.1, 0.4, 10.5]) < 1e-12);
         let (_, _, sv0) = s.partials(u, 0.0);
         let (_, _, svr) = s.partials(u, r);
-        assert!(sv0[2].abs() < 1e-9 * (1.0 + dist(&sv0, &[0.0; 3])), "{sv0:?}");
-        assert!(svr[2].abs() < 1e-9 * (1.0 + dist(&svr, &[0.0; 3])), "{svr:?}");
+        assert!(
+            sv0[2].abs() < 1e-9 * (1.0 + dist(&sv0, &[0.0; 3])),
+            "{sv0:?}"
+        );
+        assert!(
+            svr[2].abs() < 1e-9 * (1.0 + dist(&svr, &[0.0; 3])),
+            "{svr:?}"
+        );
         // The tangents point away from the cap, towards the neighbouring contour.
         let p1 = s.eval(u, 0.05);
         let dir: [f64; 3] = std::array::from_fn(|x| p1[x] - s.eval(u, 0.0)[x]);

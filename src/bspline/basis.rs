@@ -114,7 +114,11 @@ pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
     for (a, da) in d.iter_mut().enumerate() {
         let i = k + a - 3;
         let t1 = if a > 0 { q(a) / (u[i + 3] - u[i]) } else { 0.0 };
-        let t2 = if a < 3 { q(a + 1) / (u[i + 4] - u[i + 1]) } else { 0.0 };
+        let t2 = if a < 3 {
+            q(a + 1) / (u[i + 4] - u[i + 1])
+        } else {
+            0.0
+        };
         *da = 3.0 * (t1 - t2);
     }
     (n, d)

@@ -61,6 +61,10 @@ enum Item<const D: usize> {
     },
 }
 
+/// A contour's fitting data for one trial: points (with resampled ones), which are original,
+/// chord-length parameters.
+type TrialData<const D: usize> = (Vec<[f64; D]>, Vec<bool>, Vec<f64>);
+
 enum Trial<const D: usize> {
     Ok(PeriodicKnotVector, Vec<Option<ContourFit<D>>>),
     Failed(usize),
@@ -200,8 +204,7 @@ fn trial<const D: usize>(
     early_exit: bool,
 ) -> Result<Trial<D>, BsplineError> {
     // Per contour: fitting data (combined), which entries are original, params, own knots.
-    let mut data: Vec<Option<(Vec<[f64; D]>, Vec<bool>, Vec<f64>)>> =
-        Vec::with_capacity(items.len());
+    let mut data: Vec<Option<TrialData<D>>> = Vec::with_capacity(items.len());
     let mut sum = vec![0.0f64; n1 + 1];
     let mut used = 0usize;
     for item in items.iter_mut() {

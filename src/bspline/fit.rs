@@ -425,9 +425,9 @@ pub(crate) fn finalize<const D: usize>(mut fit: ContourFit<D>, tol: f64) -> Cont
         if fit.errors[j] <= max_error {
             break;
         }
-        let (d, t) =
-            fit.curve
-                .refine_boxes(&fit.points[j], (fit.errors[j], fit.params[j]), &boxes);
+        let (d, t) = fit
+            .curve
+            .refine_boxes(&fit.points[j], (fit.errors[j], fit.params[j]), &boxes);
         fit.errors[j] = d;
         fit.params[j] = t;
         max_error = max_error.max(d);

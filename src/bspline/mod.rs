@@ -17,6 +17,12 @@
 //! - [`common_knots`]: Algorithm 2 (all contours of a region on one knot vector).
 //! - [`skinning`] / [`surface`]: interpolation across the curves, and the resulting surface.
 
+// Numeric kernels index several arrays in lockstep (basis values, control points, coordinates),
+// where index loops read like the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+// `!(x > eps)` is deliberate throughout: it is also true for NaN, which must be rejected.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod basis;
 pub mod closed_curve;
 pub mod common_knots;
