@@ -150,7 +150,8 @@ impl<const D: usize> ClosedCurve<D> {
                 }
                 step *= 0.5;
             }
-            if !improved || step.abs() < 1e-13 * period {
+            // A parameter step below 1e-11 moves the point by ~1e-10 mm: converged.
+            if !improved || step.abs() < 1e-11 {
                 break;
             }
             (c, d1, d2) = self.derivs(t);

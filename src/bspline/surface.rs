@@ -15,8 +15,9 @@ use super::BsplineError;
 
 type P3 = [f64; 3];
 
-/// Samples per patch side when seeding the projection.
+/// Sample intervals per patch side: (SEED+1)² points per patch, precomputed.
 const SEED_SAMPLES: usize = 4;
+const SEED_POINTS: usize = (SEED_SAMPLES + 1) * (SEED_SAMPLES + 1);
 
 /// Bicubic B-spline surface, closed in u, open in v.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +31,8 @@ pub struct SkinnedSurface {
     /// Per patch (u span s, v span index q), index s·|v_spans| + q: bounding box of its 16
     /// control points, which holds the patch (convex hull property).
     patch_boxes: Vec<(P3, P3)>,
+    /// Per patch: S on a regular (SEED+1)² grid of its parameter rectangle (row-major in u).
+    patch_samples: Vec<[P3; SEED_POINTS]>,
 }
 
 impl SkinnedSurface {
@@ -76,14 +79,29 @@ impl SkinnedSurface {
                 patch_boxes.push(bbox(pts.iter()));
             }
         }
-        Ok(Self {
+        let mut surf = Self {
             u_knots,
             v_knots,
             control,
             v_bar,
             v_spans,
             patch_boxes,
-        })
+            patch_samples: Vec::new(),
+        };
+        let samples: Vec<[P3; SEED_POINTS]> = (0..surf.patch_boxes.len())
+            .map(|idx| {
+                let (ua, ub, va, vb) = surf.patch_rect(idx);
+                std::array::from_fn(|q| {
+                    let (a, c) = (q / (SEED_SAMPLES + 1), q % (SEED_SAMPLES + 1));
+                    surf.eval(
+                        ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64,
+                        va + (vb - va) * c as f64 / SEED_SAMPLES as f64,
+                    )
+                })
+            })
+            .collect();
+        surf.patch_samples = samples;
+        Ok(surf)
     }
 
     pub fn u_knots(&self) -> &PeriodicKnotVector {
@@ -246,61 +264,116 @@ impl SkinnedSurface {
             for _ in 0..12 {
                 let un = self.u_knots.wrap(u + du);
                 let vn = (v + dv).clamp(va, vb);
-                let fnew = dist(&self.eval(un, vn), p);
+                // derivs2 rather than eval: on acceptance (the usual case) it is reused.
+                let dn = self.derivs2(un, vn);
+                let fnew = dist(&dn[0], p);
                 if fnew <= f {
-                    improved = fnew < f || (du == 0.0 && dv == 0.0);
+                    improved = fnew < f;
                     u = un;
                     v = vn;
                     f = fnew;
+                    d = dn;
                     break;
                 }
                 du *= 0.5;
                 dv *= 0.5;
             }
-            if !improved || (du.abs() + dv.abs()) < 1e-13 * period {
+            // Parameter steps below 1e-10 move the point by ~1e-9 mm: converged.
+            if !improved || (du.abs() + dv.abs()) < 1e-10 {
                 break;
             }
-            d = self.derivs2(u, v);
         }
         (f, u, v)
     }
 
-    /// The true distance from `p` to the surface: (distance, u, v). Patches are visited in
-    /// order of the distance to their control-point bounding box (a lower bound, by the convex
-    /// hull property); each is seeded on a 5×5 sample grid and refined by Newton; the search
-    /// stops when the next lower bound is not below the best distance. Deterministic.
+    /// The true distance from `p` to the surface: (distance, u, v). The patch whose
+    /// control-point bounding box is nearest (a lower bound, by the convex hull property) is
+    /// sampled on a 5×5 grid and refined by Newton; then see [`Self::closest_point_hint`].
+    /// Deterministic, single-threaded; callers parallelise over points.
     pub fn closest_point(&self, p: &P3) -> (f64, f64, f64) {
-        let nq = self.v_spans.len();
-        let mut order: Vec<(f64, usize)> = self
+        let first = self
             .patch_boxes
             .iter()
             .enumerate()
             .map(|(i, (lo, hi))| (box_dist(p, lo, hi), i))
-            .collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let best = match first {
+            Some((_, idx)) => {
+                let seed = self.patch_seed(p, idx);
+                let r = self.closest_point_from(p, seed.1, seed.2);
+                if r.0 < seed.0 {
+                    r
+                } else {
+                    seed
+                }
+            }
+            None => (f64::INFINITY, 0.0, 0.0),
+        };
+        self.refine_patches(p, best)
+    }
+
+    /// As [`Self::closest_point`], seeded with a parameter guess (for a contour point: its
+    /// curve parameter and the curve's v̄_k), which makes the search much cheaper: Newton from
+    /// the hint gives a tight bound, then only patches whose bounding box is nearer than it
+    /// are visited, in order of that lower bound; for each, the nearest of its 5×5
+    /// precomputed samples seeds Newton (skipped when that seed lies within one sample cell
+    /// of the best solution so far: same basin). A competing minimum is missed only if Newton
+    /// from the best sample of its patch does not reach it.
+    pub fn closest_point_hint(&self, p: &P3, u0: f64, v0: f64) -> (f64, f64, f64) {
+        let best = self.closest_point_from(p, u0, v0);
+        self.refine_patches(p, best)
+    }
+
+    /// Parameter rectangle (u_a, u_b, v_a, v_b) of patch `idx`.
+    fn patch_rect(&self, idx: usize) -> (f64, f64, f64, f64) {
+        let nq = self.v_spans.len();
+        let (s, q) = (idx / nq, idx % nq);
+        let k = self.v_spans[q];
         let ud = self.u_knots.domain();
         let vk = self.v_knots.knots();
-        let mut best = (f64::INFINITY, 0.0, 0.0);
-        for (lb, idx) in order {
+        (ud[s], ud[s + 1], vk[k], vk[k + 1])
+    }
+
+    /// Best precomputed sample of patch `idx`: (distance, u, v).
+    fn patch_seed(&self, p: &P3, idx: usize) -> (f64, f64, f64) {
+        let (ua, ub, va, vb) = self.patch_rect(idx);
+        let (q, d) = self.patch_samples[idx]
+            .iter()
+            .enumerate()
+            .map(|(q, x)| (q, dist(x, p)))
+            .fold((0, f64::INFINITY), |b, c| if c.1 < b.1 { c } else { b });
+        let (a, c) = (q / (SEED_SAMPLES + 1), q % (SEED_SAMPLES + 1));
+        (
+            d,
+            ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64,
+            va + (vb - va) * c as f64 / SEED_SAMPLES as f64,
+        )
+    }
+
+    fn refine_patches(&self, p: &P3, mut best: (f64, f64, f64)) -> (f64, f64, f64) {
+        let mut cand: Vec<(f64, usize)> = self
+            .patch_boxes
+            .iter()
+            .enumerate()
+            .map(|(i, (lo, hi))| (box_dist(p, lo, hi), i))
+            .filter(|c| c.0 < best.0 * (1.0 - 1e-12))
+            .collect();
+        cand.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (lb, idx) in cand {
             if lb >= best.0 * (1.0 - 1e-12) {
                 break;
             }
-            let (s, q) = (idx / nq, idx % nq);
-            let k = self.v_spans[q];
-            let (ua, ub, va, vb) = (ud[s], ud[s + 1], vk[k], vk[k + 1]);
-            let mut seed = (f64::INFINITY, ua, va);
-            for a in 0..=SEED_SAMPLES {
-                let u = ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64;
-                for c in 0..=SEED_SAMPLES {
-                    let v = va + (vb - va) * c as f64 / SEED_SAMPLES as f64;
-                    let dd = dist(&self.eval(u, v), p);
-                    if dd < seed.0 {
-                        seed = (dd, u, v);
-                    }
-                }
-            }
-            if seed.0 >= best.0 && lb > 0.0 {
-                // The samples of this patch are no better; Newton from them rarely is.
+            // Newton from every candidate patch's best sample, even when that sample is
+            // farther than the best so far: in a coarse patch (e.g. next to a cap) the nearest
+            // sample can be millimetres from the patch's own closest point.
+            let seed = self.patch_seed(p, idx);
+            let (ua, ub, va, vb) = self.patch_rect(idx);
+            let du = (seed.1 - best.1).abs();
+            let du = du.min(self.u_knots.period() - du);
+            if seed.0 >= best.0
+                && du <= (ub - ua) / SEED_SAMPLES as f64
+                && (seed.2 - best.2).abs() <= (vb - va) / SEED_SAMPLES as f64
+            {
                 continue;
             }
             let r = self.closest_point_from(p, seed.1, seed.2);
