@@ -246,3 +246,27 @@ fn closest_point_near_cap_finds_the_foot_not_the_bulge() {
         }
     }
 }
+
+/// Queries with NaN or infinite arguments do not panic; they give NaN (documented).
+#[test]
+fn non_finite_queries_do_not_panic() {
+    let (curves, _) = region(&[30, 40, 30], 2, (false, false));
+    let s = skin(&curves).unwrap();
+    for (u, v) in [
+        (f64::NAN, 1.0),
+        (1.0, f64::NAN),
+        (f64::INFINITY, f64::NEG_INFINITY),
+    ] {
+        let _ = s.eval(u, v);
+        let _ = s.derivs2(u, v);
+        let _ = s.closest_point_from(&[1.0, 2.0, 3.0], u, v);
+    }
+    assert!(
+        s.closest_point(&[f64::NAN, 0.0, 1.0]).0.is_nan()
+            || s.closest_point(&[f64::NAN, 0.0, 1.0]).0.is_infinite()
+    );
+    let c = &curves[1];
+    let _ = c.eval(f64::NAN);
+    let _ = c.derivs(f64::INFINITY);
+    assert!(!c.distance_to(&[f64::NAN, 0.0, 0.0]).0.is_finite());
+}
