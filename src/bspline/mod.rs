@@ -17,6 +17,37 @@
 //! - [`common_knots`]: Algorithm 2 (all contours of a region on one knot vector).
 //! - [`skinning`] / [`surface`]: interpolation across the curves, and the resulting surface.
 //!
+//! # Example
+//!
+//! ```
+//! use bskin::bspline::{fit_common, fit_fewest, skin, FitOptions};
+//! use std::f64::consts::TAU;
+//!
+//! // A circle of radius 10 mm, 200 points, 0.01 mm: 8 control points (the ripple bound
+//! // R·(2π/N)⁴/768 ≤ tol predicts ≥ 7; least squares is not minimax; see the tests).
+//! let circle: Vec<[f64; 2]> = (0..200)
+//!     .map(|j| { let t = TAU * j as f64 / 200.0; [10.0 * t.cos(), 10.0 * t.sin()] })
+//!     .collect();
+//! let fit = fit_fewest(&circle, &FitOptions::new(0.01))?;
+//! assert!(fit.met && fit.max_error <= 0.01);
+//! assert_eq!(fit.n_control(), 8);
+//!
+//! // A cone-like region: three circles and a cap point, one knot vector, one surface.
+//! let ring = |r: f64, z: f64| -> Vec<[f64; 3]> {
+//!     (0..100).map(|j| { let t = TAU * j as f64 / 100.0; [r * t.cos(), r * t.sin(), z] }).collect()
+//! };
+//! let region = vec![ring(10.0, 0.0), ring(8.0, 2.0), ring(5.0, 4.0), vec![[0.0, 0.0, 5.0]]];
+//! let common = fit_common(&region, &FitOptions::new(0.05))?;
+//! assert!(common.met);
+//! let surface = skin(&common.curves)?;
+//! let v2 = surface.v_bar()[2];
+//! let p = surface.eval(1.0, v2);
+//! approx::assert_abs_diff_eq!(p[2], 4.0, epsilon = 1e-9); // reproduces curve 2 at v̄_2
+//! let (d, _, _) = surface.closest_point(&[10.0, 0.0, 0.0]);
+//! assert!(d <= 0.05);
+//! # Ok::<(), bskin::bspline::BsplineError>(())
+//! ```
+//!
 //! # Where METHOD.md / the paper are wrong or ambiguous (re-derived and tested here)
 //!
 //! 1. **Algorithms 1 and 2, Step 6** return "the curve(s) fitted on T_pre", the *last tried*
