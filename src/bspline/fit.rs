@@ -558,6 +558,14 @@ fn fit_n<const D: usize>(
             "got {n_control} control points, a closed cubic needs at least 4"
         )));
     }
+    // Resampling allocates n_control points: refuse absurd requests instead of exhausting
+    // memory (more than 64 control points per contour point adds nothing).
+    let cap = 64 * m1.max(1024);
+    if n_control > cap {
+        return Err(BsplineError::InvalidArgument(format!(
+            "got {n_control} control points for {m1} contour points, at most {cap} allowed"
+        )));
+    }
     match n_control.cmp(&m1) {
         Ordering::Equal => {
             let u = chord_params(pts, n_control);
