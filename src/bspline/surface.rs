@@ -518,7 +518,6 @@ fn bezier_matrix(u: &[f64], k: usize) -> [[f64; 4]; 4] {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::bspline::{fit_common, skin, FitOptions};
 
     /// Every patch lies inside its Bézier-net box (the lower bound the search relies on).
