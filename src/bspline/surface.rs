@@ -15,7 +15,7 @@ use super::BsplineError;
 
 type P3 = [f64; 3];
 
-/// Sample intervals per patch side: (SEED+1)² points per patch, precomputed. Fine enough to
+/// Sample intervals per patch side: (SEED+1)² points per visited patch. Fine enough to
 /// separate two basins in one patch (a sharp bend beside a flat cap puts two local minima of
 /// the distance a third of a patch apart).
 const SEED_SAMPLES: usize = 8;
@@ -35,8 +35,6 @@ pub struct SkinnedSurface {
     /// Per patch (u span s, v span index q), index s·|v_spans| + q: bounding box of its 16
     /// control points, which holds the patch (convex hull property).
     patch_boxes: Vec<(P3, P3)>,
-    /// Per patch: S on a regular (SEED+1)² grid of its parameter rectangle (row-major in u).
-    patch_samples: Vec<[P3; SEED_POINTS]>,
 }
 
 impl SkinnedSurface {
@@ -115,29 +113,14 @@ impl SkinnedSurface {
                 patch_boxes.push((lo, hi));
             }
         }
-        let mut surf = Self {
+        Ok(Self {
             u_knots,
             v_knots,
             control,
             v_bar,
             v_spans,
             patch_boxes,
-            patch_samples: Vec::new(),
-        };
-        let samples: Vec<[P3; SEED_POINTS]> = (0..surf.patch_boxes.len())
-            .map(|idx| {
-                let (ua, ub, va, vb) = surf.patch_rect(idx);
-                std::array::from_fn(|q| {
-                    let (a, c) = (q / (SEED_SAMPLES + 1), q % (SEED_SAMPLES + 1));
-                    surf.eval(
-                        ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64,
-                        va + (vb - va) * c as f64 / SEED_SAMPLES as f64,
-                    )
-                })
-            })
-            .collect();
-        surf.patch_samples = samples;
-        Ok(surf)
+        })
     }
 
     pub fn u_knots(&self) -> &PeriodicKnotVector {
@@ -417,7 +400,51 @@ impl SkinnedSurface {
         (ud[s], ud[s + 1], vk[k], vk[k + 1])
     }
 
-    /// Best precomputed sample of patch `idx`: (distance, u, v).
+    /// S on the regular (SEED+1)² grid of patch `idx` (row-major in u), by tensor-product
+    /// evaluation: (SEED+1) basis evaluations per direction instead of one pair per point.
+    fn patch_grid(&self, idx: usize) -> [P3; SEED_POINTS] {
+        const W: usize = SEED_SAMPLES + 1;
+        let nq = self.v_spans.len();
+        let (s, q) = (idx / nq, idx % nq);
+        let k = self.v_spans[q];
+        let (ua, ub, va, vb) = self.patch_rect(idx);
+        let ue = self.u_knots.extended();
+        let vk = self.v_knots.knots();
+        let bu: [[f64; 4]; W] = std::array::from_fn(|a| {
+            basis::values(ue, s + 3, ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64)
+        });
+        let bv: [[f64; 4]; W] = std::array::from_fn(|c| {
+            basis::values(vk, k, va + (vb - va) * c as f64 / SEED_SAMPLES as f64)
+        });
+        let (nu, nv) = (self.n_u(), self.n_v());
+        // Rows first: r[a][c] = Σ_b M_b(v_c) V[(s+a) mod nu][k−3+b].
+        let mut r = [[[0.0; 3]; W]; 4];
+        for (a, ra) in r.iter_mut().enumerate() {
+            let row = ((s + a) % nu) * nv + k - 3;
+            for (c, rc) in ra.iter_mut().enumerate() {
+                for (b, w) in bv[c].iter().enumerate() {
+                    let x = &self.control[row + b];
+                    for i in 0..3 {
+                        rc[i] += w * x[i];
+                    }
+                }
+            }
+        }
+        let mut out = [[0.0; 3]; SEED_POINTS];
+        for (a, bua) in bu.iter().enumerate() {
+            for c in 0..W {
+                let o = &mut out[a * W + c];
+                for (ia, w) in bua.iter().enumerate() {
+                    for i in 0..3 {
+                        o[i] += w * r[ia][c][i];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Best sample of patch `idx`: (distance, u, v).
     fn patch_seed(&self, p: &P3, idx: usize) -> (f64, f64, f64) {
         let mut out = [(f64::INFINITY, 0.0, 0.0); 1];
         self.patch_seeds(p, idx, &mut out);
@@ -429,8 +456,9 @@ impl SkinnedSurface {
     fn patch_seeds(&self, p: &P3, idx: usize, out: &mut [(f64, f64, f64)]) {
         const W: usize = SEED_SAMPLES + 1;
         let (ua, ub, va, vb) = self.patch_rect(idx);
+        let samples = self.patch_grid(idx);
         let mut d = [0.0f64; SEED_POINTS];
-        for (dq, x) in d.iter_mut().zip(self.patch_samples[idx].iter()) {
+        for (dq, x) in d.iter_mut().zip(samples.iter()) {
             *dq = dist(x, p);
         }
         out.iter_mut().for_each(|o| *o = (f64::INFINITY, 0.0, 0.0));
