@@ -204,6 +204,13 @@ fn two_curves_skin() {
     let s = skin(&curves).unwrap();
     assert_eq!(s.n_v(), 4);
     assert!(dist(&s.eval(2.0, 1.0), &curves[1].eval(2.0)) < 1e-9);
+    // The iso-curve at v̄_k has curve k's control points.
+    for (k, c) in curves.iter().enumerate() {
+        let iso = s.iso_curve(s.v_bar()[k]).unwrap();
+        for (a, b) in iso.control().iter().zip(c.control()) {
+            assert!(dist(a, b) < 1e-9);
+        }
+    }
 }
 
 /// Regression: next to a flat cap the surface bends sharply at the first contours, and a
