@@ -1,6 +1,8 @@
 //! Knot vectors, basis functions, closed-curve evaluation and point distance, checked against
 //! independent references (Cox–de Boor sums, finite differences, brute-force sampling).
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 

@@ -1,6 +1,8 @@
 //! Algorithm 2: every curve of a region on one knot vector within tolerance, caps, CLIST,
 //! the unmeetable case.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -108,4 +110,16 @@ fn unmeetable_tolerance_reports_instead_of_failing() {
     }
     // The coarse contour is interpolated or nearly so.
     assert!(f.max_errors[0] < 1e-3, "{:?}", f.max_errors);
+}
+
+/// CLIST: contours start sorted by point count (largest first); the first contour that fails
+/// a trial moves to the front. A large smooth circle gives a small N_min, at which the
+/// smaller, wavier star fails, so the star ends up first.
+#[test]
+fn failing_contour_moves_to_the_front_of_clist() {
+    let smooth = lift(&circle(800, 20.0), 0.0);
+    let wavy = lift(&star(300, 20.0, 0.0, 5), 1.0);
+    let f = fit_common(&[smooth, wavy], &FitOptions::new(0.01)).unwrap();
+    assert!(f.met);
+    assert_eq!(f.clist, vec![1, 0]);
 }

@@ -1,6 +1,8 @@
 //! Fitting one contour and Algorithm 1: tolerance by true distance, exact interpolation, valid
 //! knots, C² seam, known counts for a circle and an ellipse, degenerate input.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -168,6 +170,12 @@ fn degenerate_inputs_are_errors() {
     assert!(fit_fewest(&circle(20, 5.0), &FitOptions::new(f64::NAN)).is_err());
     assert!(fit_fewest(&circle(20, 5.0), &FitOptions::new(-1.0)).is_err());
     assert!(fit_contour(&circle(20, 5.0), 3, &o).is_err());
+    let e = fit_contour(&circle(20, 5.0), 1 << 40, &o).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("for 20 contour points, at most 65536"),
+        "{e}"
+    );
 }
 
 /// Repeated consecutive points (and a closing duplicate) are dropped, not rejected.

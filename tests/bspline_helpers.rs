@@ -1,5 +1,6 @@
 //! Shared generators for the `bspline_*` tests (included with `#[path]`; no tests of its own).
 #![allow(dead_code)]
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -1,6 +1,8 @@
 //! Skinning: the surface reproduces each curve at its v̄_k, meets the end-tangent conditions,
 //! closes smoothly onto caps; partials and the closest point against references.
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
@@ -202,4 +204,74 @@ fn two_curves_skin() {
     let s = skin(&curves).unwrap();
     assert_eq!(s.n_v(), 4);
     assert!(dist(&s.eval(2.0, 1.0), &curves[1].eval(2.0)) < 1e-9);
+    // The iso-curve at v̄_k has curve k's control points.
+    for (k, c) in curves.iter().enumerate() {
+        let iso = s.iso_curve(s.v_bar()[k]).unwrap();
+        for (a, b) in iso.control().iter().zip(c.control()) {
+            assert!(dist(a, b) < 1e-9);
+        }
+    }
+}
+
+/// Regression: next to a flat cap the surface bends sharply at the first contours, and a
+/// contour point there can have two local minima of distance (e.g. 0.003 mm at its own foot,
+/// 0.7 mm on the bulge below), even inside one patch. Three bugs were pinned on this region:
+/// the search once kept a patch's best *sample* as "best" and skipped Newton from it as
+/// "same basin" (0.49 mm); an unconstrained Newton run slid from the foot's patch into the
+/// bulge's basin (0.56 mm); a seed on a patch boundary stalled because the Newton step pointed
+/// out of the box while the gradient pointed in (0.19 mm). Every contour point must be at most
+/// its curve error from the surface (the surface contains the curve), seeded or not.
+#[test]
+fn closest_point_near_cap_finds_the_foot_not_the_bulge() {
+    use rand::{Rng, SeedableRng};
+    let mut contours: Vec<Vec<[f64; 3]>> = (0..10)
+        .map(|k| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(k as u64);
+            let m = 150 + rng.random_range(0..300);
+            let r0 = 30.0 + (k as f64 * 0.7).sin() * 5.0;
+            lift(&star(m, r0, 0.02, 100 + k as u64), 2.0 * k as f64 + 2.0)
+        })
+        .collect();
+    contours.insert(0, vec![[0.0, 0.0, 1.0]]);
+    let f = fit_common(&contours, &FitOptions::new(0.1)).unwrap();
+    let s = skin(&f.curves).unwrap();
+    for (k, pts) in f.points.iter().enumerate() {
+        for (j, p) in pts.iter().enumerate() {
+            let g = s.closest_point(p);
+            let h = s.closest_point_hint(p, f.params[k][j], s.v_bar()[k]);
+            assert!(
+                g.0 <= f.errors[k][j] + 1e-9,
+                "contour {k} point {j}: surface {g:?} > curve {}",
+                f.errors[k][j]
+            );
+            assert!(
+                (g.0 - h.0).abs() < 1e-9,
+                "contour {k} point {j}: global {g:?} vs hinted {h:?}"
+            );
+        }
+    }
+}
+
+/// Queries with NaN or infinite arguments do not panic; they give NaN (documented).
+#[test]
+fn non_finite_queries_do_not_panic() {
+    let (curves, _) = region(&[30, 40, 30], 2, (false, false));
+    let s = skin(&curves).unwrap();
+    for (u, v) in [
+        (f64::NAN, 1.0),
+        (1.0, f64::NAN),
+        (f64::INFINITY, f64::NEG_INFINITY),
+    ] {
+        let _ = s.eval(u, v);
+        let _ = s.derivs2(u, v);
+        let _ = s.closest_point_from(&[1.0, 2.0, 3.0], u, v);
+    }
+    assert!(
+        s.closest_point(&[f64::NAN, 0.0, 1.0]).0.is_nan()
+            || s.closest_point(&[f64::NAN, 0.0, 1.0]).0.is_infinite()
+    );
+    let c = &curves[1];
+    let _ = c.eval(f64::NAN);
+    let _ = c.derivs(f64::INFINITY);
+    assert!(!c.distance_to(&[f64::NAN, 0.0, 0.0]).0.is_finite());
 }

@@ -124,7 +124,7 @@ pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
     (n, d)
 }
 
-/// de Boor's algorithm: the point Σ_a ctrl[a]·N_{k-3+a}(t) for t in span `k`, where `ctrl`
+/// de Boor's algorithm: the point `Σ_a ctrl[a]·N_{k-3+a}(t)` for t in span `k`, where `ctrl`
 /// are the four control points of that span.
 pub fn de_boor<const D: usize>(u: &[f64], k: usize, t: f64, ctrl: [[f64; D]; 4]) -> [f64; D] {
     let mut d = ctrl;

@@ -3,7 +3,10 @@
 //! In: a [`PeriodicKnotVector`] with n+1 control points and n+1 control points `[f64; D]`.
 //! Out: C(t) = Σ_{i=0}^{n+3} B_{i mod (n+1)} N_{i,4}(t), t ∈ [0, n+1) (any t is wrapped),
 //! its first and second derivatives, and the true (global) point-to-curve distance.
-//! Invariants: `control.len() == knots.n_control()`, every coordinate finite. The curve is C²
+//! Invariants: `control.len() == knots.n_control()`, every coordinate finite (checked by
+//! [`ClosedCurve::try_new`]). Queries (`eval`, `distance_to`, …) never panic; a non-finite
+//! parameter or query point yields NaN coordinates/distance, which callers must treat as
+//! invalid input (the constructors and fitters reject NaN with an error). The curve is C²
 //! everywhere, including across the seam t = 0 ≡ n+1, because the knots are extended
 //! periodically and the control points are reused cyclically.
 
@@ -150,7 +153,8 @@ impl<const D: usize> ClosedCurve<D> {
                 }
                 step *= 0.5;
             }
-            if !improved || step.abs() < 1e-13 * period {
+            // A parameter step below 1e-11 moves the point by ~1e-10 mm: converged.
+            if !improved || step.abs() < 1e-11 {
                 break;
             }
             (c, d1, d2) = self.derivs(t);

@@ -44,10 +44,15 @@ pub struct CommonFit<const D: usize> {
     pub max_errors: Vec<f64>,
     /// Every contour within tolerance.
     pub met: bool,
-    /// Per input contour: the cleaned points, their closest-point parameters and distances
-    /// (a cap has its one point, parameter 0, distance 0).
+    /// Per input contour: the cleaned points ([`super::clean_contour`]; a cap has its one
+    /// point).
     pub points: Vec<Vec<[f64; D]>>,
+    /// Per point: parameter of its closest point found on its curve (cap: 0). With
+    /// [`SkinnedSurface::v_bar`](super::SkinnedSurface::v_bar) it seeds
+    /// [`SkinnedSurface::closest_point_hint`](super::SkinnedSurface::closest_point_hint).
     pub params: Vec<Vec<f64>>,
+    /// Per point: distance to that closest point, as in [`ContourFit::errors`] (true for the
+    /// points deciding the maximum, an upper bound for the others; cap: 0).
     pub errors: Vec<Vec<f64>>,
     /// CLIST at the end (most recently failing contours first).
     pub clist: Vec<usize>,
@@ -60,6 +65,10 @@ enum Item<const D: usize> {
         interp: Option<(ClosedCurve<D>, Vec<f64>)>,
     },
 }
+
+/// A contour's fitting data for one trial: points (with resampled ones), which are original,
+/// chord-length parameters.
+type TrialData<const D: usize> = (Vec<[f64; D]>, Vec<bool>, Vec<f64>);
 
 enum Trial<const D: usize> {
     Ok(PeriodicKnotVector, Vec<Option<ContourFit<D>>>),
@@ -200,8 +209,7 @@ fn trial<const D: usize>(
     early_exit: bool,
 ) -> Result<Trial<D>, BsplineError> {
     // Per contour: fitting data (combined), which entries are original, params, own knots.
-    let mut data: Vec<Option<(Vec<[f64; D]>, Vec<bool>, Vec<f64>)>> =
-        Vec::with_capacity(items.len());
+    let mut data: Vec<Option<TrialData<D>>> = Vec::with_capacity(items.len());
     let mut sum = vec![0.0f64; n1 + 1];
     let mut used = 0usize;
     for item in items.iter_mut() {

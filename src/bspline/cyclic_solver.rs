@@ -1,7 +1,7 @@
 //! Symmetric positive definite systems with cyclic band structure: the normal equations
 //! NᵀN B = NᵀP of closed cubic least squares (paper Appendix, METHOD §6).
 //!
-//! In: an N×N matrix with A[i][k] = 0 unless the cyclic distance of i and k is ≤ 3 (built with
+//! In: an N×N matrix with `A[i][k] = 0` unless the cyclic distance of i and k is ≤ 3 (built with
 //! [`CyclicBandedMatrix::add`]), and right-hand sides `[f64; D]` per row. Out: the solution,
 //! in O(N) time and memory, or [`BsplineError::Singular`] when a pivot vanishes (e.g. a knot
 //! span holds no parameter).
@@ -53,7 +53,7 @@ impl CyclicBandedMatrix {
         self.n
     }
 
-    /// Adds `v` to A[i][k] and, when i ≠ k, to A[k][i] (the matrix stays symmetric).
+    /// Adds `v` to `A[i][k]` and, when i ≠ k, to `A[k][i]` (the matrix stays symmetric).
     /// Returns an error if the cyclic distance of i and k exceeds 3 or an index is out of range.
     pub fn add(&mut self, i: usize, k: usize, v: f64) -> Result<(), BsplineError> {
         let n = self.n;
@@ -109,7 +109,7 @@ impl CyclicBandedMatrix {
         }
     }
 
-    /// A[i][k].
+    /// `A[i][k]`.
     pub fn get(&self, i: usize, k: usize) -> f64 {
         let n = self.n;
         match &self.storage {

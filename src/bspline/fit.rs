@@ -8,10 +8,19 @@
 //! - m = n: interpolation on Eq. 4 knots (averaging, d = 1). n > m: interpolate D(t), insert
 //!   n − m points on D so that all n+1 are as evenly spaced (by arc length on D) as possible,
 //!   interpolate those. m > n: least squares on Eq. 5 knots, then Rogers–Fog parameter
-//!   correction (u_0 fixed, at most `max_corrections` = 7 rounds), keeping the best round.
+//!   correction (u_0 fixed, at most `max_corrections` = 7 rounds), keeping the best round
+//!   (by max residual: more rounds can make it worse, as the paper warns).
+//! - Beyond the paper, both switchable or harmless: between rounds, points outside 0.9 × tol
+//!   get more least-squares weight (`minimax_weights`, Lawson-style); and a fit whose residual
+//!   cannot reach 1.5 × tol even if the last round's improvement rate continued is abandoned
+//!   early (it would fail anyway; this makes the failing trials of the searches cheap).
 //! - Success: every point's *true* distance to the curve ≤ tolerance. |P_j − C(u_j)| is an
-//!   upper bound of it, so it is checked first and the projection is only run where it fails.
-//! - The normal equations are solved in O(n) ([`CyclicBandedMatrix`]).
+//!   upper bound of it, so it is checked first, then a local projection, and the global
+//!   search only where that still exceeds the tolerance.
+//! - The normal equations are solved in O(n) ([`CyclicBandedMatrix`]); a fit costs O(m + n)
+//!   per round, Algorithm 1 O(log m) fits.
+//! - Parameters and knots are in [0, n+1); contours may be in any dimension D (the pipeline
+//!   uses D = 3, patient mm).
 //!
 //! Input cleaning ([`clean_contour`]): non-finite coordinates are an error; consecutive
 //! repeated points (and a last point repeating the first) are *dropped*, not rejected — a
@@ -556,6 +565,14 @@ fn fit_n<const D: usize>(
     if n_control < 4 {
         return Err(BsplineError::InvalidArgument(format!(
             "got {n_control} control points, a closed cubic needs at least 4"
+        )));
+    }
+    // Resampling allocates n_control points: refuse absurd requests instead of exhausting
+    // memory (more than 64 control points per contour point adds nothing).
+    let cap = 64 * m1.max(1024);
+    if n_control > cap {
+        return Err(BsplineError::InvalidArgument(format!(
+            "got {n_control} control points for {m1} contour points, at most {cap} allowed"
         )));
     }
     match n_control.cmp(&m1) {

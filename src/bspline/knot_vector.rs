@@ -243,7 +243,8 @@ impl ClampedKnotVector {
         if t >= b {
             return last;
         }
-        let k = self.knots.partition_point(|&x| x <= t) - 1;
+        // saturating: a NaN t finds no knot ≤ t.
+        let k = self.knots.partition_point(|&x| x <= t).saturating_sub(1);
         k.clamp(3, last)
     }
 }

@@ -1,6 +1,6 @@
 //! Skinning (paper §2.6, METHOD §8): r+1 closed curves on one knot vector → one surface.
 //!
-//! In: curves C_0..C_r (r ≥ 1) on the same [`PeriodicKnotVector`] (n+1 control points each);
+//! In: curves C_0..C_r (r ≥ 1) on the same [`PeriodicKnotVector`](super::PeriodicKnotVector) (n+1 control points each);
 //! C_0 and/or C_r may be a point (all control points equal: a cap). Out: a [`SkinnedSurface`]
 //! with (n+1)×(r+3) control points that reproduces C_k exactly at v = v̄_k.
 //!

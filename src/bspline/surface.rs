@@ -15,8 +15,13 @@ use super::BsplineError;
 
 type P3 = [f64; 3];
 
-/// Samples per patch side when seeding the projection.
-const SEED_SAMPLES: usize = 4;
+/// Sample intervals per patch side: (SEED+1)² points per visited patch. Fine enough to
+/// separate two basins in one patch (a sharp bend beside a flat cap puts two local minima of
+/// the distance a third of a patch apart).
+const SEED_SAMPLES: usize = 8;
+/// Newton runs per candidate patch, from its lowest discrete local minima on the sample grid.
+const SEEDS_PER_PATCH: usize = 3;
+const SEED_POINTS: usize = (SEED_SAMPLES + 1) * (SEED_SAMPLES + 1);
 
 /// Bicubic B-spline surface, closed in u, open in v.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,14 +71,46 @@ impl SkinnedSurface {
         }
         let vk = v_knots.knots();
         let v_spans: Vec<usize> = (3..vk.len() - 4).filter(|&k| vk[k] < vk[k + 1]).collect();
+        // Boxes of each patch's Bézier net (tighter than its 16 B-spline control points,
+        // which also cover the neighbouring patches): the closest-point search visits far
+        // fewer patches. The patch lies in the convex hull of its Bézier net.
+        let mu: Vec<[[f64; 4]; 4]> = (0..nu)
+            .map(|s| bezier_matrix(u_knots.extended(), s + 3))
+            .collect();
+        let mv: Vec<[[f64; 4]; 4]> = v_spans
+            .iter()
+            .map(|&k| bezier_matrix(v_knots.knots(), k))
+            .collect();
         let mut patch_boxes = Vec::with_capacity(nu * v_spans.len());
-        for s in 0..nu {
-            for &k in &v_spans {
-                let pts: Vec<P3> = (0..4)
-                    .flat_map(|a| (0..4).map(move |c| (a, c)))
-                    .map(|(a, c)| control[((s + a) % nu) * nv + k - 3 + c])
-                    .collect();
-                patch_boxes.push(bbox(pts.iter()));
+        for (s, mus) in mu.iter().enumerate() {
+            for (q, &k) in v_spans.iter().enumerate() {
+                let b = |a: usize, c: usize| control[((s + a) % nu) * nv + k - 3 + c];
+                let mut net = [[0.0; 3]; 16];
+                for (bu, row) in mus.iter().enumerate() {
+                    for (bv, mvr) in mv[q].iter().enumerate() {
+                        let mut pnt = [0.0; 3];
+                        for a in 0..4 {
+                            for c in 0..4 {
+                                let w = row[a] * mvr[c];
+                                if w != 0.0 {
+                                    let x = b(a, c);
+                                    for i in 0..3 {
+                                        pnt[i] += w * x[i];
+                                    }
+                                }
+                            }
+                        }
+                        net[bu * 4 + bv] = pnt;
+                    }
+                }
+                let (mut lo, mut hi) = bbox(net.iter());
+                // Rounding in the conversion: pad by a relative hair so the bound stays a bound.
+                for i in 0..3 {
+                    let pad = 1e-12 * (1.0 + lo[i].abs().max(hi[i].abs()));
+                    lo[i] -= pad;
+                    hi[i] += pad;
+                }
+                patch_boxes.push((lo, hi));
             }
         }
         Ok(Self {
@@ -197,8 +234,25 @@ impl SkinnedSurface {
     /// (distance, u, v); never worse than the seed.
     pub fn closest_point_from(&self, p: &P3, u0: f64, v0: f64) -> (f64, f64, f64) {
         let (va, vb) = self.v_knots.domain();
+        self.newton(p, u0, v0, None, (va, vb))
+    }
+
+    /// Newton as in [`Self::closest_point_from`]; with `u_box = Some((a, b))` u is clamped to
+    /// [a, b] instead of wrapping, and v always to `v_box`: the minimum over one patch.
+    fn newton(
+        &self,
+        p: &P3,
+        u0: f64,
+        v0: f64,
+        u_box: Option<(f64, f64)>,
+        (va, vb): (f64, f64),
+    ) -> (f64, f64, f64) {
         let period = self.u_knots.period();
-        let mut u = self.u_knots.wrap(u0);
+        let place_u = |u: f64| match u_box {
+            Some((a, b)) => u.clamp(a, b),
+            None => self.u_knots.wrap(u),
+        };
+        let mut u = place_u(u0);
         let mut v = v0.clamp(va, vb);
         let mut d = self.derivs2(u, v);
         let mut f = dist(&d[0], p);
@@ -229,85 +283,308 @@ impl SkinnedSurface {
                     solve(juu + lam, juv, jvv + lam)
                 })
                 .unwrap_or((0.0, 0.0));
-            // On the v boundary with the step pointing out: slide along u only.
-            if (v <= va && dv < 0.0) || (v >= vb && dv > 0.0) {
-                dv = 0.0;
-                du = if huu > 1e-12 * scale {
-                    -gu / huu
-                } else if juu > 0.0 {
-                    -gu / juu
+            // Active bounds (KKT): a parameter on a bound whose gradient points out of the box
+            // stays there; the other one moves by 1D Newton.
+            let v_active = (v <= va && gv > 0.0) || (v >= vb && gv < 0.0);
+            let u_active = u_box.is_some_and(|(a, b)| (u <= a && gu > 0.0) || (u >= b && gu < 0.0));
+            let one_d = |g: f64, h: f64, j: f64| {
+                if h > 1e-12 * scale {
+                    -g / h
+                } else if j > 0.0 {
+                    -g / j
                 } else {
                     0.0
-                };
+                }
+            };
+            // Converged: the residual is orthogonal to the free directions (to 1e-10 rad).
+            let pgu = if u_active { 0.0 } else { gu };
+            let pgv = if v_active { 0.0 } else { gv };
+            if (pgu * pgu + pgv * pgv).sqrt() <= 1e-10 * dist(&d[0], p) * scale.sqrt() {
+                break;
+            }
+            match (u_active, v_active) {
+                (true, true) => break,
+                (false, true) => {
+                    dv = 0.0;
+                    du = one_d(gu, huu, juu);
+                }
+                (true, false) => {
+                    du = 0.0;
+                    dv = one_d(gv, hvv, jvv);
+                }
+                (false, false) => {}
             }
             let lim = 0.5 * period;
             du = du.clamp(-lim, lim);
             let mut improved = false;
-            for _ in 0..12 {
-                let un = self.u_knots.wrap(u + du);
-                let vn = (v + dv).clamp(va, vb);
-                let fnew = dist(&self.eval(un, vn), p);
-                if fnew <= f {
-                    improved = fnew < f || (du == 0.0 && dv == 0.0);
-                    u = un;
-                    v = vn;
-                    f = fnew;
-                    break;
+            // First the (projected) Newton step; if clamping to the box spoils it, the
+            // diagonally scaled gradient step, which stays a descent direction when projected.
+            let gd = (
+                if u_active { 0.0 } else { -gu / juu.max(1e-300) },
+                if v_active { 0.0 } else { -gv / jvv.max(1e-300) },
+            );
+            'steps: for (mut su, mut sv) in [(du, dv), (gd.0.clamp(-lim, lim), gd.1)] {
+                for _ in 0..12 {
+                    let un = place_u(u + su);
+                    let vn = (v + sv).clamp(va, vb);
+                    // derivs2 rather than eval: on acceptance (the usual case) it is reused.
+                    let dn = self.derivs2(un, vn);
+                    let fnew = dist(&dn[0], p);
+                    if fnew < f {
+                        improved = true;
+                        du = un - u;
+                        dv = vn - v;
+                        u = un;
+                        v = vn;
+                        f = fnew;
+                        d = dn;
+                        break 'steps;
+                    }
+                    su *= 0.5;
+                    sv *= 0.5;
                 }
-                du *= 0.5;
-                dv *= 0.5;
             }
-            if !improved || (du.abs() + dv.abs()) < 1e-13 * period {
+            // Parameter steps below 1e-10 move the point by ~1e-9 mm: converged.
+            if !improved || (du.abs() + dv.abs()) < 1e-10 {
                 break;
             }
-            d = self.derivs2(u, v);
         }
         (f, u, v)
     }
 
-    /// The true distance from `p` to the surface: (distance, u, v). Patches are visited in
-    /// order of the distance to their control-point bounding box (a lower bound, by the convex
-    /// hull property); each is seeded on a 5×5 sample grid and refined by Newton; the search
-    /// stops when the next lower bound is not below the best distance. Deterministic.
+    /// The true distance from `p` to the surface: (distance, u, v). The patch whose
+    /// control-point bounding box is nearest (a lower bound, by the convex hull property) is
+    /// sampled (9×9, precomputed) and refined by Newton; then see [`Self::closest_point_hint`].
+    /// Deterministic, single-threaded; callers parallelise over points.
     pub fn closest_point(&self, p: &P3) -> (f64, f64, f64) {
-        let nq = self.v_spans.len();
-        let mut order: Vec<(f64, usize)> = self
+        let first = self
             .patch_boxes
             .iter()
             .enumerate()
             .map(|(i, (lo, hi))| (box_dist(p, lo, hi), i))
-            .collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let best = match first {
+            Some((_, idx)) => {
+                let seed = self.patch_seed(p, idx);
+                let r = self.closest_point_from(p, seed.1, seed.2);
+                if r.0 < seed.0 {
+                    r
+                } else {
+                    seed
+                }
+            }
+            None => (f64::INFINITY, 0.0, 0.0),
+        };
+        self.refine_patches(p, best)
+    }
+
+    /// As [`Self::closest_point`], seeded with a parameter guess (for a contour point: its
+    /// curve parameter and the curve's v̄_k), which makes the search much cheaper: Newton from
+    /// the hint gives a tight bound, then only patches whose bounding box is nearer than it
+    /// are visited, in order of that lower bound (the box of the patch's Bézier net); for
+    /// each, the lowest (up to 3) discrete local minima of the distance on its 9×9
+    /// precomputed samples seed Newton runs kept inside the patch's parameter rectangle. A
+    /// minimum is missed only if the sample grid does not separate its basin.
+    pub fn closest_point_hint(&self, p: &P3, u0: f64, v0: f64) -> (f64, f64, f64) {
+        let best = self.closest_point_from(p, u0, v0);
+        self.refine_patches(p, best)
+    }
+
+    /// Parameter rectangle (u_a, u_b, v_a, v_b) of patch `idx`.
+    fn patch_rect(&self, idx: usize) -> (f64, f64, f64, f64) {
+        let nq = self.v_spans.len();
+        let (s, q) = (idx / nq, idx % nq);
+        let k = self.v_spans[q];
         let ud = self.u_knots.domain();
         let vk = self.v_knots.knots();
-        let mut best = (f64::INFINITY, 0.0, 0.0);
-        for (lb, idx) in order {
-            if lb >= best.0 * (1.0 - 1e-12) {
-                break;
-            }
-            let (s, q) = (idx / nq, idx % nq);
-            let k = self.v_spans[q];
-            let (ua, ub, va, vb) = (ud[s], ud[s + 1], vk[k], vk[k + 1]);
-            let mut seed = (f64::INFINITY, ua, va);
-            for a in 0..=SEED_SAMPLES {
-                let u = ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64;
-                for c in 0..=SEED_SAMPLES {
-                    let v = va + (vb - va) * c as f64 / SEED_SAMPLES as f64;
-                    let dd = dist(&self.eval(u, v), p);
-                    if dd < seed.0 {
-                        seed = (dd, u, v);
+        (ud[s], ud[s + 1], vk[k], vk[k + 1])
+    }
+
+    /// S on the regular (SEED+1)² grid of patch `idx` (row-major in u), by tensor-product
+    /// evaluation: (SEED+1) basis evaluations per direction instead of one pair per point.
+    fn patch_grid(&self, idx: usize) -> [P3; SEED_POINTS] {
+        const W: usize = SEED_SAMPLES + 1;
+        let nq = self.v_spans.len();
+        let (s, q) = (idx / nq, idx % nq);
+        let k = self.v_spans[q];
+        let (ua, ub, va, vb) = self.patch_rect(idx);
+        let ue = self.u_knots.extended();
+        let vk = self.v_knots.knots();
+        let bu: [[f64; 4]; W] = std::array::from_fn(|a| {
+            basis::values(ue, s + 3, ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64)
+        });
+        let bv: [[f64; 4]; W] = std::array::from_fn(|c| {
+            basis::values(vk, k, va + (vb - va) * c as f64 / SEED_SAMPLES as f64)
+        });
+        let (nu, nv) = (self.n_u(), self.n_v());
+        // Rows first: r[a][c] = Σ_b M_b(v_c) V[(s+a) mod nu][k−3+b].
+        let mut r = [[[0.0; 3]; W]; 4];
+        for (a, ra) in r.iter_mut().enumerate() {
+            let row = ((s + a) % nu) * nv + k - 3;
+            for (c, rc) in ra.iter_mut().enumerate() {
+                for (b, w) in bv[c].iter().enumerate() {
+                    let x = &self.control[row + b];
+                    for i in 0..3 {
+                        rc[i] += w * x[i];
                     }
                 }
             }
-            if seed.0 >= best.0 && lb > 0.0 {
-                // The samples of this patch are no better; Newton from them rarely is.
+        }
+        let mut out = [[0.0; 3]; SEED_POINTS];
+        for (a, bua) in bu.iter().enumerate() {
+            for c in 0..W {
+                let o = &mut out[a * W + c];
+                for (ia, w) in bua.iter().enumerate() {
+                    for i in 0..3 {
+                        o[i] += w * r[ia][c][i];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Best sample of patch `idx`: (distance, u, v).
+    fn patch_seed(&self, p: &P3, idx: usize) -> (f64, f64, f64) {
+        let mut out = [(f64::INFINITY, 0.0, 0.0); 1];
+        self.patch_seeds(p, idx, &mut out);
+        out[0]
+    }
+
+    /// The lowest discrete local minima (over the 8-neighbourhood) of the distance on patch
+    /// `idx`'s sample grid, best first, into `out` (unused entries: infinite distance).
+    fn patch_seeds(&self, p: &P3, idx: usize, out: &mut [(f64, f64, f64)]) {
+        const W: usize = SEED_SAMPLES + 1;
+        let (ua, ub, va, vb) = self.patch_rect(idx);
+        let samples = self.patch_grid(idx);
+        let mut d = [0.0f64; SEED_POINTS];
+        for (dq, x) in d.iter_mut().zip(samples.iter()) {
+            *dq = dist(x, p);
+        }
+        out.iter_mut().for_each(|o| *o = (f64::INFINITY, 0.0, 0.0));
+        for q in 0..SEED_POINTS {
+            let (a, c) = (q / W, q % W);
+            let mut is_min = true;
+            'nb: for da in -1i32..=1 {
+                for dc in -1i32..=1 {
+                    let (na, nc) = (a as i32 + da, c as i32 + dc);
+                    if (da, dc) == (0, 0) || na < 0 || nc < 0 || na >= W as i32 || nc >= W as i32 {
+                        continue;
+                    }
+                    if d[na as usize * W + nc as usize] < d[q] {
+                        is_min = false;
+                        break 'nb;
+                    }
+                }
+            }
+            if !is_min {
                 continue;
             }
-            let r = self.closest_point_from(p, seed.1, seed.2);
-            if r.0 < best.0 {
-                best = r;
+            let cand = (
+                d[q],
+                ua + (ub - ua) * a as f64 / SEED_SAMPLES as f64,
+                va + (vb - va) * c as f64 / SEED_SAMPLES as f64,
+            );
+            // Insert into the sorted list of the lowest minima.
+            if let Some(pos) = out.iter().position(|o| cand.0 < o.0) {
+                for i in (pos + 1..out.len()).rev() {
+                    out[i] = out[i - 1];
+                }
+                out[pos] = cand;
+            }
+        }
+    }
+
+    fn refine_patches(&self, p: &P3, mut best: (f64, f64, f64)) -> (f64, f64, f64) {
+        let mut cand: Vec<(f64, usize)> = self
+            .patch_boxes
+            .iter()
+            .enumerate()
+            .map(|(i, (lo, hi))| (box_dist(p, lo, hi), i))
+            .filter(|c| c.0 < best.0 * (1.0 - 1e-12))
+            .collect();
+        cand.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (lb, idx) in cand {
+            if lb >= best.0 * (1.0 - 1e-12) {
+                break;
+            }
+            // Newton from the patch's lowest discrete minima, even when they are farther than
+            // the best so far: in a coarse patch (e.g. next to a cap) the nearest sample can be
+            // millimetres from the patch's own closest point. Newton is kept inside the
+            // patch's rectangle: an unconstrained run can slide into another basin.
+            let mut seeds = [(f64::INFINITY, 0.0, 0.0); SEEDS_PER_PATCH];
+            self.patch_seeds(p, idx, &mut seeds);
+            let (ua, ub, va, vb) = self.patch_rect(idx);
+            for seed in seeds.iter().filter(|s| s.0.is_finite()) {
+                let r = self.newton(p, seed.1, seed.2, Some((ua, ub)), (va, vb));
+                if r.0 < best.0 {
+                    best = r;
+                }
             }
         }
         best
+    }
+}
+
+/// Rows: the four Bézier points of span `k` (t ∈ [u_k, u_{k+1}]) as combinations of the
+/// span's four B-spline control points: b₀ = C(u_k), b₁ = b₀ + h/3·C′(u_k),
+/// b₂ = b₃ − h/3·C′(u_{k+1}), b₃ = C(u_{k+1}) (h = u_{k+1} − u_k).
+fn bezier_matrix(u: &[f64], k: usize) -> [[f64; 4]; 4] {
+    let (a, b) = (u[k], u[k + 1]);
+    let h = b - a;
+    let da = basis::ders(u, k, a);
+    let db = basis::ders(u, k, b);
+    let mut m = [[0.0; 4]; 4];
+    for i in 0..4 {
+        m[0][i] = da[0][i];
+        m[1][i] = da[0][i] + h / 3.0 * da[1][i];
+        m[2][i] = db[0][i] - h / 3.0 * db[1][i];
+        m[3][i] = db[0][i];
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::bspline::{fit_common, skin, FitOptions};
+
+    /// Every patch lies inside its Bézier-net box (the lower bound the search relies on).
+    #[test]
+    fn patch_boxes_contain_their_patches() {
+        let ring = |r: f64, z: f64, w: f64| -> Vec<[f64; 3]> {
+            (0..60)
+                .map(|j| {
+                    let t = std::f64::consts::TAU * j as f64 / 60.0;
+                    let rr = r * (1.0 + w * (3.0 * t).cos());
+                    [rr * t.cos(), rr * t.sin(), z]
+                })
+                .collect()
+        };
+        let region = vec![
+            vec![[0.0, 0.0, 0.0]],
+            ring(10.0, 1.0, 0.1),
+            ring(12.0, 3.0, 0.2),
+            ring(8.0, 5.0, 0.05),
+        ];
+        let f = fit_common(&region, &FitOptions::new(0.05)).unwrap();
+        let s = skin(&f.curves).unwrap();
+        for idx in 0..s.patch_boxes.len() {
+            let (ua, ub, va, vb) = s.patch_rect(idx);
+            let (lo, hi) = s.patch_boxes[idx];
+            for a in 0..=10 {
+                for c in 0..=10 {
+                    let q = s.eval(
+                        ua + (ub - ua) * a as f64 / 10.0,
+                        va + (vb - va) * c as f64 / 10.0,
+                    );
+                    for i in 0..3 {
+                        assert!(
+                            q[i] >= lo[i] - 1e-9 && q[i] <= hi[i] + 1e-9,
+                            "patch {idx}: {q:?} outside {lo:?}..{hi:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }

@@ -54,7 +54,7 @@ pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
         let d: Vec<f64> = fit.points[k]
             .par_iter()
             .zip(&fit.params[k])
-            .map(|(p, &u)| surface.closest_point_from(p, u, v_bar[k]).0)
+            .map(|(p, &u)| surface.closest_point_hint(p, u, v_bar[k]).0)
             .collect();
         dists.extend(d);
     }
