@@ -155,3 +155,69 @@ fn info_lists_the_series() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["series"][0]["slices"], 61);
 }
+
+#[test]
+fn contours_piped_into_run_give_the_same_surfaces() {
+    // `bskin contours DIR | bskin run - -o OUT`: the contour NDJSON is a pipeline input.
+    let tmp = tempfile::tempdir().unwrap();
+    let c = bskin(&["contours", testdata().to_str().unwrap(), "-q"]);
+    assert!(c.status.success());
+    let out = tmp.path().join("piped");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
+        .args(["run", "-", "-o", out.to_str().unwrap(), "-q"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Write;
+        child.stdin.take().unwrap().write_all(&c.stdout).unwrap();
+    }
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let piped: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let direct_dir = tmp.path().join("direct");
+    let d = bskin(&[
+        "run",
+        testdata().to_str().unwrap(),
+        "-o",
+        direct_dir.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(d.status.success());
+    let direct: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(direct_dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(piped["surfaces_total"], direct["surfaces_total"]);
+    assert_eq!(piped["input"]["contours"], direct["input"]["contours"]);
+    assert_eq!(piped["tolerance_met"], true);
+    assert_eq!(piped["series"]["uid"], direct["series"]["uid"]);
+}
+
+#[test]
+fn truncated_contour_stream_is_an_error_naming_the_line() {
+    let c = bskin(&["contours", testdata().to_str().unwrap(), "-q"]);
+    let text = String::from_utf8(c.stdout).unwrap();
+    let cut = &text[..text.len() / 2];
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
+        .args(["run", "-", "-o", out.to_str().unwrap(), "-q"])
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        use std::io::Write;
+        child
+            .stdin
+            .take()
+            .unwrap()
+            .write_all(cut.as_bytes())
+            .unwrap();
+    }
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("NDJSON line"), "{}", stderr(&o));
+    assert!(!out.join("report.json").exists() && !out.join("mesh.stl").exists());
+}

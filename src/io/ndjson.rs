@@ -239,6 +239,7 @@ pub struct NdjsonReader<R: BufRead> {
     pub header: Option<SeriesRecord>,
     pub ended: bool,
     peeked: Option<SliceRecord>,
+    reported_truncation: bool,
 }
 
 impl<R: BufRead> NdjsonReader<R> {
@@ -250,6 +251,7 @@ impl<R: BufRead> NdjsonReader<R> {
             header: None,
             ended: false,
             peeked: None,
+            reported_truncation: false,
         };
         r.peeked = r.next_slice()?;
         Ok(r)
@@ -289,6 +291,14 @@ impl<R: BufRead> Iterator for NdjsonReader<R> {
             Some(r) => r,
             None => match self.next_slice() {
                 Ok(Some(r)) => r,
+                Ok(None) if self.header.is_some() && !self.ended && !self.reported_truncation => {
+                    // A stream that announced itself must end with its end record.
+                    self.reported_truncation = true;
+                    return Some(Err(Error::bad_input(
+                        format!("NDJSON line {}", self.line),
+                        "the stream ends without its \"end\" record: truncated",
+                    )));
+                }
                 Ok(None) => return None,
                 Err(e) => return Some(Err(e)),
             },
@@ -359,5 +369,23 @@ mod tests {
         let s: Vec<_> = NdjsonReader::new(nan.as_bytes()).unwrap().collect();
         let msg = s[0].as_ref().unwrap_err().to_string();
         assert!(msg.contains("line 1") && msg.contains("2 points"), "{msg}");
+    }
+
+    #[test]
+    fn a_stream_cut_at_a_line_boundary_is_truncated() {
+        let header = SeriesRecord::new(&SeriesSummary::default(), &ContourOptions::default());
+        let mut w = NdjsonWriter::new(Vec::new(), &header).unwrap();
+        w.write_section(&section(0)).unwrap();
+        let bytes = w.finish().unwrap();
+        let text = String::from_utf8(bytes).unwrap();
+        let without_end: String = text.lines().take(2).map(|l| format!("{l}\n")).collect();
+        let got: Vec<_> = NdjsonReader::new(without_end.as_bytes()).unwrap().collect();
+        assert_eq!(got.len(), 2);
+        assert!(got[0].is_ok());
+        assert!(got[1]
+            .as_ref()
+            .unwrap_err()
+            .to_string()
+            .contains("truncated"));
     }
 }
