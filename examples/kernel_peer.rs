@@ -9,40 +9,8 @@
 
 use std::time::Instant;
 
+use bskin::bspline::samples::noisy_star as star;
 use bskin::bspline::{fit_fewest, FitOptions};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use std::f64::consts::PI;
-
-/// Same family as the tests: star-shaped radius 30 mm with four harmonics, jittered angles,
-/// ±`noise` mm uniform noise per coordinate.
-fn star(m: usize, r0: f64, noise: f64, seed: u64) -> Vec<[f64; 2]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let harmonics: Vec<(f64, f64, f64)> = (2..6)
-        .map(|k| {
-            (
-                k as f64,
-                rng.random_range(0.0..0.11),
-                rng.random_range(0.0..2.0 * PI),
-            )
-        })
-        .collect();
-    (0..m)
-        .map(|j| {
-            let th = 2.0 * PI * (j as f64 + rng.random_range(-0.3..0.3)) / m as f64;
-            let r = r0
-                * (1.0
-                    + harmonics
-                        .iter()
-                        .map(|(k, a, ph)| a * (k * th + ph).cos())
-                        .sum::<f64>());
-            [
-                r * th.cos() + rng.random_range(-noise..=noise),
-                r * th.sin() + rng.random_range(-noise..=noise),
-            ]
-        })
-        .collect()
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

@@ -1,7 +1,9 @@
 //! The real CT series in `../shared/data/ct/` give contours (the tilted, variable-spacing and
 //! JPEG 2000 ones included). Skipped with a message when the shared data is absent.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::shared;
+
 use std::time::Instant;
 
 use bskin::config::ContoursConfig;
@@ -9,18 +11,6 @@ use bskin::dicom;
 use bskin::geometry::polygon::{is_simple, signed_area};
 use bskin::pipeline::run_contours;
 use bskin::stages::Control;
-
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(sub);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: shared data not found at {}", p.display());
-        None
-    }
-}
 
 fn contours_of(sub: &str, slices: usize) {
     let Some(dir) = shared(sub) else { return };

@@ -2,21 +2,12 @@
 //! codec, lossless exactly) and pydicom's odd files (no preamble, no file meta, big endian,
 //! truncated). Skipped with a message when the shared data is absent.
 
+mod common;
+use common::shared;
+
 use std::path::PathBuf;
 
 use bskin::dicom::{decode_file, scan, DecodedImage};
-
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(sub);
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipped: shared data not found at {}", p.display());
-        None
-    }
-}
 
 /// (max, mean) |Δ| between two decoded images of the same size, over the pixels that are
 /// padding in neither (lossy codecs may move a value onto or off the padding value).

@@ -2,21 +2,10 @@
 //! groups. Each frame becomes a slice `SliceSource { path, frame: Some(k) }`. Skipped with a
 //! message when the shared data is absent.
 
-use std::path::PathBuf;
+mod common;
+use common::shared;
 
 use bskin::dicom::{decode_slice, scan, select_series};
-
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(sub);
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipped: shared data not found at {}", p.display());
-        None
-    }
-}
 
 fn check(sub: &str) {
     let Some(dir) = shared(sub) else {

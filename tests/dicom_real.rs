@@ -2,22 +2,12 @@
 //! traps reported (GE: gantry tilt and variable spacing; Siemens: empty UIDs, JPEG 2000).
 //! Skipped with a message when the shared data is absent.
 
-use std::path::PathBuf;
+mod common;
+use common::shared;
+
 use std::time::Instant;
 
 use bskin::dicom::{decode_slice, scan, select_series, Series};
-
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(sub);
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipped: shared data not found at {}", p.display());
-        None
-    }
-}
 
 /// Decodes every slice; returns (min HU ignoring padding, max HU, padding pixels, seconds).
 fn decode_all(series: &Series) -> (f32, f32, usize, f64) {

@@ -3,22 +3,13 @@
 //! References: `abdomen-20/implicit_vr_le_*` for the abdomen; the originals in `ct/` for the GE
 //! head and the Philips phantom. Skipped with a message when the shared data is absent.
 
+mod common;
+use common::shared;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bskin::dicom::{decode_slice, scan, select_series};
-
-fn shared(sub: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data")
-        .join(sub);
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!("skipped: shared data not found at {}", p.display());
-        None
-    }
-}
 
 /// Every slice in HU, in sorted order, and the transfer syntax names.
 type Loaded = (Vec<Vec<f32>>, Vec<f64>, String, f64);

@@ -76,9 +76,9 @@ fn empty_segmentation_gives_no_surface_and_no_error() {
 fn thousands_of_tiny_islands() {
     // A 2-pixel checkerboard of speckles: all below the minimum area, dropped and counted.
     let images = synthetic(4, 200, |k, x, y| {
-        if ((x as usize / 2) + (y as usize / 2) + k) % 2 == 0
-            && (x as usize % 2 == 0)
-            && (y as usize % 2 == 0)
+        if ((x as usize / 2) + (y as usize / 2) + k).is_multiple_of(2)
+            && (x as usize).is_multiple_of(2)
+            && (y as usize).is_multiple_of(2)
         {
             1000.0
         } else {

@@ -347,7 +347,7 @@ pub(crate) fn fit_on_knots<const D: usize>(
                 }
             }
         }
-        if best.as_ref().map_or(true, |b| worst < b.0) {
+        if best.as_ref().is_none_or(|b| worst < b.0) {
             best = Some((worst, curve, u.clone(), res.clone()));
         }
         if worst <= tol || round == opts.max_corrections {

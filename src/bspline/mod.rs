@@ -101,6 +101,7 @@ pub mod common_knots;
 pub mod cyclic_solver;
 pub mod fit;
 pub mod knot_vector;
+pub mod samples;
 pub mod skinning;
 pub mod surface;
 

@@ -4,6 +4,20 @@
 
 use std::path::{Path, PathBuf};
 
+/// `../shared/data/<sub>` beside the checkout, or `None` with a "skipped" note (CI has it;
+/// a bare checkout may not).
+pub fn shared(sub: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(sub);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("skipped: shared data not found at {}", p.display());
+        None
+    }
+}
+
 use bskin::config::RunConfig;
 use bskin::dicom::{self, WriteOptions};
 use bskin::geometry::marching_squares::iso_loops;
