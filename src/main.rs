@@ -326,6 +326,11 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         } else {
             0.0
         },
+        reduction_ratio_raw: if control_points_total > 0 {
+            result.input.points_raw as f64 / control_points_total as f64
+        } else {
+            0.0
+        },
         max_error_mm,
         tolerance_met: surfaces.iter().all(|s| s.tolerance_met),
         surfaces,

@@ -254,7 +254,17 @@ pub fn run_surfaces(
     });
     match failure {
         Some(e) => Err(e),
-        None => Ok(summary),
+        None => {
+            for s in &summary.stages {
+                tracing::info!(
+                    "stage {}: {} items, {:.3} s busy",
+                    s.stage,
+                    s.items,
+                    s.busy.as_secs_f64()
+                );
+            }
+            Ok(summary)
+        }
     }
 }
 

@@ -24,8 +24,12 @@ pub struct Report {
     pub surfaces_total: usize,
     pub input_points_total: usize,
     pub control_points_total: usize,
-    /// input_points_total / control_points_total: the paper's data reduction.
+    /// input_points_total / control_points_total: the paper's data reduction, against the
+    /// compressed contours the surfaces were fitted to.
     pub reduction_ratio: f64,
+    /// input.points_raw / control_points_total: against the contours before compression
+    /// (what a marching-squares polyline of the same slices would hold).
+    pub reduction_ratio_raw: f64,
     pub max_error_mm: f64,
     pub tolerance_met: bool,
     pub files: Vec<FileReport>,

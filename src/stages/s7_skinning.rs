@@ -66,6 +66,14 @@ pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
         rms_mm: (dists.iter().map(|d| d * d).sum::<f64>() / n).sqrt(),
     };
     let curve_fit_max_mm = fit.max_errors.iter().copied().fold(0.0, f64::max);
+    tracing::debug!(
+        "{}: {}×{} control points, {} input points, max error {:.4} mm",
+        describe(&region),
+        surface.n_u(),
+        surface.n_v(),
+        error.points,
+        error.max_mm
+    );
     Ok(Surface {
         tolerance_met: error.max_mm <= tolerance && fit.met,
         region,
