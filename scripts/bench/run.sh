@@ -22,6 +22,8 @@
 # Env:   BENCH_WORK (default /tmp/bskin-bench: venv, generated series, outputs),
 #        CARGO_TARGET_DIR (default target/).
 # --quick: 256x256x100 synthetic series only, 2 runs per tool (a few minutes).
+# Full run: 3 runs per tool on the synthetic series and the skull, 2 on its transcoded copies;
+# the 2-process contours peer on the synthetic series and the skull only.
 # A full run takes ~20-30 min on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
