@@ -21,10 +21,11 @@
 #                             [--cases synthetic,skull,skull-jpegls,skull-jpegll]
 # Env:   BENCH_WORK (default /tmp/bskin-bench: venv, generated series, outputs),
 #        CARGO_TARGET_DIR (default target/).
-# --quick: 256x256x100 synthetic series only, 2 runs per tool (a few minutes).
+# --quick: 256x256x100 synthetic series only (and the scaling check on 100 vs 500 slices),
+# 2 runs per tool (about 2 minutes).
 # Full run: 3 runs per tool on the synthetic series and the skull, 2 on its transcoded copies;
 # the 2-process contours peer on the synthetic series and the skull only.
-# A full run takes ~20-30 min on 2 cores.
+# A full run takes ~25 min on 2 cores (most of it: bskin run on the skull and its copies).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 WORK="${BENCH_WORK:-/tmp/bskin-bench}"
