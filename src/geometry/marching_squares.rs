@@ -11,8 +11,6 @@
 //! close half a pixel beyond the last sample. Saddle cells are resolved by the cell-centre
 //! average, the usual choice that keeps the topology consistent between adjacent cells.
 
-use std::collections::HashMap;
-
 use super::polygon::Point;
 
 /// Keep crossings a hair away from grid points: a sample exactly at the level would otherwise
@@ -20,107 +18,121 @@ use super::polygon::Point;
 const T_MARGIN: f64 = 1e-4;
 
 /// Closed iso-loops of `field` at `level`. Non-finite samples count as outside.
+///
+/// Dense arrays rather than hash maps: a crossing is found from its grid edge through one
+/// index table, and most cells (all inside or all outside) cost four byte reads.
 pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<Vec<Point>> {
     assert_eq!(
         field.len(),
         width * height,
         "field size must be width × height"
     );
-    // Padded grid: one ring of outside samples around the image.
+    // Padded grid: one ring of outside samples around the image; NaN marks "outside, no value".
     let pw = width + 2;
     let ph = height + 2;
-    let value = |i: usize, j: usize| -> Option<f64> {
-        if i == 0 || j == 0 || i > height || j > width {
-            return None;
+    let mut values = vec![f64::NAN; pw * ph];
+    let mut inside = vec![false; pw * ph];
+    for r in 0..height {
+        for c in 0..width {
+            let v = field[r * width + c] as f64;
+            if v.is_finite() {
+                let k = (r + 1) * pw + c + 1;
+                values[k] = v;
+                inside[k] = v >= level;
+            }
         }
-        let v = field[(i - 1) * width + (j - 1)] as f64;
-        v.is_finite().then_some(v)
-    };
-    let inside = |v: Option<f64>| v.is_some_and(|v| v >= level);
-    // Crossing on the grid edge from a to b (one inside, one outside).
-    let crossing = |va: Option<f64>, vb: Option<f64>| -> f64 {
-        match (va, vb) {
-            (Some(a), Some(b)) => ((level - a) / (b - a)).clamp(T_MARGIN, 1.0 - T_MARGIN),
-            _ => 0.5,
+    }
+    // Crossing on the grid edge from sample a to sample b (one inside, one outside).
+    let crossing_t = |va: f64, vb: f64| -> f64 {
+        if va.is_nan() || vb.is_nan() {
+            0.5
+        } else {
+            ((level - va) / (vb - va)).clamp(T_MARGIN, 1.0 - T_MARGIN)
         }
     };
 
     // Edge ids: horizontal edge (i,j)-(i,j+1) = 2·(i·pw+j), vertical (i,j)-(i+1,j) = +1.
-    let h_edge = |i: usize, j: usize| 2 * (i * pw + j);
-    let v_edge = |i: usize, j: usize| 2 * (i * pw + j) + 1;
-
-    let mut points: HashMap<usize, Point> = HashMap::new();
-    // Segments in scan order: from edge → to edge (inside on the left).
-    let mut segments: Vec<(usize, usize)> = Vec::new();
+    let mut crossing_of_edge = vec![u32::MAX; 2 * pw * ph];
+    let mut points: Vec<Point> = Vec::new();
+    // next[crossing] = the crossing its segment leads to (inside on the left).
+    let mut next: Vec<u32> = Vec::new();
+    // Segment starts in scan order, so loops come out in a fixed order.
+    let mut starts: Vec<u32> = Vec::new();
 
     for i in 0..ph - 1 {
         for j in 0..pw - 1 {
             // Corners counter-clockwise in (x, y): TL, TR, BR, BL.
-            let v = [
-                value(i, j),
-                value(i, j + 1),
-                value(i + 1, j + 1),
-                value(i + 1, j),
+            let idx = [
+                i * pw + j,
+                i * pw + j + 1,
+                (i + 1) * pw + j + 1,
+                (i + 1) * pw + j,
             ];
-            let ins = [inside(v[0]), inside(v[1]), inside(v[2]), inside(v[3])];
-            let count = ins.iter().filter(|&&b| b).count();
-            if count == 0 || count == 4 {
+            let ins = [
+                inside[idx[0]],
+                inside[idx[1]],
+                inside[idx[2]],
+                inside[idx[3]],
+            ];
+            if ins[0] == ins[1] && ins[1] == ins[2] && ins[2] == ins[3] {
                 continue;
             }
-            // Cell edges in the same order: e_k joins corner k to corner k+1.
-            let edge_ids = [
-                h_edge(i, j),
-                v_edge(i, j + 1),
-                h_edge(i + 1, j),
-                v_edge(i, j),
+            let pos = [
+                (j as f64, i as f64),
+                ((j + 1) as f64, i as f64),
+                ((j + 1) as f64, (i + 1) as f64),
+                (j as f64, (i + 1) as f64),
             ];
-            // (exit?, edge) for each edge whose ends differ, in counter-clockwise order.
-            let mut crossings: Vec<(bool, usize)> = Vec::with_capacity(4);
-            for (k, &id) in edge_ids.iter().enumerate() {
+            // Cell edges in the same order: e_k joins corner k to corner k+1.
+            let edge_ids = [2 * idx[0], 2 * idx[1] + 1, 2 * idx[3], 2 * idx[0] + 1];
+            // (exit?, crossing) for each edge whose ends differ, in counter-clockwise order.
+            let mut crossings = [(false, 0u32); 4];
+            let mut count = 0;
+            for (k, &edge) in edge_ids.iter().enumerate() {
                 let (a, b) = (k, (k + 1) % 4);
                 if ins[a] == ins[b] {
                     continue;
                 }
-                points.entry(id).or_insert_with(|| {
-                    let t = crossing(v[a], v[b]);
-                    // Position of corner a and b in padded coordinates.
-                    let corner = |c: usize| match c {
-                        0 => (j as f64, i as f64),
-                        1 => ((j + 1) as f64, i as f64),
-                        2 => ((j + 1) as f64, (i + 1) as f64),
-                        _ => (j as f64, (i + 1) as f64),
-                    };
-                    let (pa, pb) = (corner(a), corner(b));
-                    [
+                if crossing_of_edge[edge] == u32::MAX {
+                    let t = crossing_t(values[idx[a]], values[idx[b]]);
+                    let (pa, pb) = (pos[a], pos[b]);
+                    crossing_of_edge[edge] = points.len() as u32;
+                    points.push([
                         pa.0 + t * (pb.0 - pa.0) - 1.0,
                         pa.1 + t * (pb.1 - pa.1) - 1.0,
-                    ]
-                });
-                crossings.push((ins[a], id));
+                    ]);
+                    next.push(u32::MAX);
+                }
+                crossings[count] = (ins[a], crossing_of_edge[edge]);
+                count += 1;
             }
             // Walking the cell boundary counter-clockwise, the inside region's boundary leaves
             // the cell edge at an exit and the iso-segment runs back from it to an entry.
             // One inside run: exit → its entry. Saddle: each exit pairs with the entry before
             // it (inside corners separate) or after it (inside corners joined through the
             // centre).
-            if crossings.len() == 2 {
-                let (exit, entry) = if crossings[0].0 {
-                    (crossings[0].1, crossings[1].1)
+            let mut link = |from: u32, to: u32| {
+                next[from as usize] = to;
+                starts.push(from);
+            };
+            if count == 2 {
+                if crossings[0].0 {
+                    link(crossings[0].1, crossings[1].1);
                 } else {
-                    (crossings[1].1, crossings[0].1)
-                };
-                segments.push((exit, entry));
+                    link(crossings[1].1, crossings[0].1);
+                }
             } else {
-                let centre: f64 = v
-                    .iter()
-                    .map(|x| x.unwrap_or(f64::NEG_INFINITY))
-                    .sum::<f64>()
-                    / 4.0;
+                let v = idx.map(|k| values[k]);
+                let centre = if v.iter().any(|x| x.is_nan()) {
+                    f64::NEG_INFINITY
+                } else {
+                    v.iter().sum::<f64>() / 4.0
+                };
                 let joined = centre >= level;
                 for k in 0..4 {
                     if crossings[k].0 {
                         let entry = if joined { (k + 1) % 4 } else { (k + 3) % 4 };
-                        segments.push((crossings[k].1, crossings[entry].1));
+                        link(crossings[k].1, crossings[entry].1);
                     }
                 }
             }
@@ -128,20 +140,19 @@ pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<
     }
 
     // Every crossing has exactly one outgoing and one incoming segment: chain them.
-    let next: HashMap<usize, usize> = segments.iter().copied().collect();
-    let mut used: HashMap<usize, bool> = HashMap::with_capacity(segments.len());
+    let mut used = vec![false; points.len()];
     let mut loops = Vec::new();
-    for &(start, _) in &segments {
-        if used.contains_key(&start) {
+    for &start in &starts {
+        if used[start as usize] {
             continue;
         }
         let mut lp = Vec::new();
         let mut e = start;
         loop {
-            used.insert(e, true);
-            lp.push(points[&e]);
-            e = next[&e];
-            if e == start {
+            used[e as usize] = true;
+            lp.push(points[e as usize]);
+            e = next[e as usize];
+            if e == start || e == u32::MAX {
                 break;
             }
         }

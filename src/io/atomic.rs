@@ -2,6 +2,9 @@
 //! temporary file in the same directory, which is renamed over the final name only when the
 //! whole output has been written and flushed. A failed or killed run leaves at most a
 //! temporary file (removed on drop when the process survives).
+//!
+//! A path that already exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is
+//! written in place: renaming a file over a device node would replace the device.
 
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -10,11 +13,55 @@ use crate::{Error, Result};
 
 pub struct AtomicFile {
     path: PathBuf,
-    writer: BufWriter<tempfile::NamedTempFile>,
+    writer: BufWriter<Sink>,
+}
+
+enum Sink {
+    Temporary(tempfile::NamedTempFile),
+    /// An existing special file (device, FIFO): no temporary, no rename.
+    InPlace(std::fs::File),
+}
+
+impl Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Sink::Temporary(f) => f.write(buf),
+            Sink::InPlace(f) => f.write(buf),
+        }
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Sink::Temporary(f) => f.flush(),
+            Sink::InPlace(f) => f.flush(),
+        }
+    }
+}
+
+impl std::io::Seek for Sink {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        match self {
+            Sink::Temporary(f) => f.seek(pos),
+            Sink::InPlace(f) => f.seek(pos),
+        }
+    }
 }
 
 impl AtomicFile {
     pub fn create(path: &Path) -> Result<Self> {
+        let fail = |e: std::io::Error| Error::Output {
+            path: path.to_path_buf(),
+            source: e,
+        };
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+            let f = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(fail)?;
+            return Ok(AtomicFile {
+                path: path.to_path_buf(),
+                writer: BufWriter::with_capacity(1 << 16, Sink::InPlace(f)),
+            });
+        }
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
@@ -27,13 +74,10 @@ impl AtomicFile {
             .prefix(&format!(".{name}."))
             .suffix(".tmp")
             .tempfile_in(dir)
-            .map_err(|e| Error::Output {
-                path: path.to_path_buf(),
-                source: e,
-            })?;
+            .map_err(fail)?;
         Ok(AtomicFile {
             path: path.to_path_buf(),
-            writer: BufWriter::with_capacity(1 << 16, tmp),
+            writer: BufWriter::with_capacity(1 << 16, Sink::Temporary(tmp)),
         })
     }
 
@@ -44,9 +88,13 @@ impl AtomicFile {
             path: path.clone(),
             source: e,
         };
-        let tmp = self.writer.into_inner().map_err(|e| fail(e.into_error()))?;
-        tmp.as_file().sync_all().map_err(fail)?;
-        tmp.persist(&path).map_err(|e| fail(e.error))?;
+        match self.writer.into_inner().map_err(|e| fail(e.into_error()))? {
+            Sink::Temporary(tmp) => {
+                tmp.as_file().sync_all().map_err(fail)?;
+                tmp.persist(&path).map_err(|e| fail(e.error))?;
+            }
+            Sink::InPlace(mut f) => f.flush().map_err(fail)?,
+        }
         Ok(())
     }
 
@@ -131,5 +179,18 @@ mod tests {
         drop(g); // a failed run: the old file stays, no temporary is left behind
         assert_eq!(std::fs::read(&path).unwrap(), b"hello");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_device_is_written_in_place_not_replaced() {
+        let null = Path::new("/dev/null");
+        if !null.exists() {
+            return;
+        }
+        let mut f = AtomicFile::create(null).unwrap();
+        f.write_all(b"discarded").unwrap();
+        f.commit().unwrap();
+        let meta = std::fs::metadata(null).unwrap();
+        assert!(!meta.is_file(), "/dev/null must still be a device");
     }
 }
