@@ -149,21 +149,35 @@ pub fn run_surfaces(
                 RunInput::Images(source) => {
                     let (images_tx, images_rx) = bounded(depth);
                     let (sections_tx, sections_rx) = bounded::<CompiledSection>(depth);
+                    // Decoding and segmentation get their own workers: in the shared global
+                    // pool their batches queue behind long branching jobs (rayon serves jobs
+                    // injected from outside the pool last), which stalls the stream.
+                    let front = rayon::ThreadPoolBuilder::new()
+                        .num_threads(rayon::current_num_threads())
+                        .thread_name(|i| format!("bskin-front-{i}"))
+                        .build()
+                        .map_err(|e| {
+                            Error::Internal(format!("cannot start worker threads: {e}"))
+                        })?;
                     thread::scope(|inner| {
                         let load = inner.spawn(|| {
-                            cancel_on_error(ctl, s1_load::run(source, batch, images_tx, ctl))
+                            front.install(|| {
+                                cancel_on_error(ctl, s1_load::run(source, batch, images_tx, ctl))
+                            })
                         });
                         let contours = inner.spawn(|| {
-                            cancel_on_error(
-                                ctl,
-                                s2_contours::run(
-                                    images_rx,
-                                    &config.contour,
-                                    batch,
-                                    sections_tx,
+                            front.install(|| {
+                                cancel_on_error(
                                     ctl,
-                                ),
-                            )
+                                    s2_contours::run(
+                                        images_rx,
+                                        &config.contour,
+                                        batch,
+                                        sections_tx,
+                                        ctl,
+                                    ),
+                                )
+                            })
                         });
                         let sections = sections_rx.iter().map(|c| {
                             counts.count(&c);
