@@ -77,12 +77,18 @@ pub fn write_step<W: Write>(
         let face = w.face(k, s)?;
         shells.push(w.ent(&format!("OPEN_SHELL('surface {k}',({face}))"))?);
     }
-    let model = w.ent(&format!(
-        "SHELL_BASED_SURFACE_MODEL('',({}))",
-        shells.join(",")
-    ))?;
+    // The model's shell set may not be empty (SET [1:?]): with no surface the representation
+    // holds only its placement.
+    let mut items = vec![placement];
+    if !shells.is_empty() {
+        items.push(w.ent(&format!(
+            "SHELL_BASED_SURFACE_MODEL('',({}))",
+            shells.join(",")
+        ))?);
+    }
     let rep = w.ent(&format!(
-        "MANIFOLD_SURFACE_SHAPE_REPRESENTATION('bskin surfaces',({placement},{model}),{ctx})"
+        "MANIFOLD_SURFACE_SHAPE_REPRESENTATION('bskin surfaces',({}),{ctx})",
+        items.join(",")
     ))?;
     w.ent(&format!("SHAPE_DEFINITION_REPRESENTATION({pds},{rep})"))?;
     w.line("ENDSEC;")?;
