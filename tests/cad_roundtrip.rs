@@ -309,15 +309,13 @@ impl Step {
         let (header, data) = text.split_once("DATA;\n").unwrap();
         let data = data.strip_suffix("ENDSEC;\nEND-ISO-10303-21;\n").unwrap();
         let mut ents = BTreeMap::new();
-        let mut expected_id = 1;
-        for line in data.lines() {
+        for (expected_id, line) in (1..).zip(data.lines()) {
             let body = line
                 .strip_suffix(';')
                 .expect("one entity per line, ';' at the end");
             let (id, rest) = body.split_once('=').unwrap();
             let id: usize = id.strip_prefix('#').unwrap().parse().unwrap();
             assert_eq!(id, expected_id, "ids are consecutive");
-            expected_id += 1;
             let mut p = Parser {
                 s: rest.as_bytes(),
                 i: 0,
