@@ -93,9 +93,16 @@ pub struct RunArgs {
     pub segmentation: SegmentationArgs,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
-    /// Output directory (created): report.json, mesh.stl.
+    /// Output directory (created): report.json, mesh.stl, surfaces.step, surfaces.igs.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Files to write besides report.json, comma-separated: stl, step, igs.
+    #[arg(long, default_value = "stl,step,igs")]
+    pub formats: String,
+    /// Also write samples.json: points of each surface by bskin's own evaluation, for checking
+    /// the CAD files with another kernel (scripts/check_cad.py).
+    #[arg(long, hide = true)]
+    pub write_samples: bool,
     /// Fitting tolerance (mm): every input contour point lies within it of its surface.
     #[arg(long, default_value_t = 0.5)]
     pub tolerance: f64,

@@ -42,6 +42,59 @@ pub struct RunConfig {
     pub mesh_samples_per_span: usize,
     /// Cap distance for a series of a single section (mm): half of it on each side.
     pub fallback_spacing_mm: f64,
+    /// Which files the writer stage produces.
+    pub outputs: OutputOptions,
+}
+
+/// Output files of `bskin run` besides `report.json` (always written).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OutputOptions {
+    /// `mesh.stl`.
+    pub stl: bool,
+    /// `surfaces.step`.
+    pub step: bool,
+    /// `surfaces.igs`.
+    pub iges: bool,
+    /// `samples.json`: points of each surface by bskin's own evaluation, for checking the CAD
+    /// files against an independent kernel (debugging / CI).
+    pub samples: bool,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        OutputOptions {
+            stl: true,
+            step: true,
+            iges: true,
+            samples: false,
+        }
+    }
+}
+
+impl OutputOptions {
+    /// From a comma-separated list of formats (`stl`, `step`, `igs`; `stp` and `iges` are
+    /// accepted too). Samples stay off.
+    pub fn from_formats(list: &str) -> Result<Self, String> {
+        let mut o = OutputOptions {
+            stl: false,
+            step: false,
+            iges: false,
+            samples: false,
+        };
+        for f in list.split(',').map(str::trim).filter(|f| !f.is_empty()) {
+            match f.to_ascii_lowercase().as_str() {
+                "stl" => o.stl = true,
+                "step" | "stp" => o.step = true,
+                "igs" | "iges" => o.iges = true,
+                other => {
+                    return Err(format!(
+                        "unknown format {other:?}; choose from stl, step, igs"
+                    ))
+                }
+            }
+        }
+        Ok(o)
+    }
 }
 
 impl RunConfig {
@@ -59,6 +112,7 @@ impl RunConfig {
             cell_mm: (tolerance_mm / 4.0).min(0.1),
             mesh_samples_per_span: 4,
             fallback_spacing_mm: 1.0,
+            outputs: OutputOptions::default(),
         }
     }
 }

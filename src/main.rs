@@ -12,7 +12,7 @@ use std::time::Instant;
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use bskin::config::{ContoursConfig, PipelineOptions, RunConfig};
+use bskin::config::{ContoursConfig, OutputOptions, PipelineOptions, RunConfig};
 use bskin::dicom::{self, Series};
 use bskin::exit_codes::ExitCode;
 use bskin::geometry::contours::{ContourOptions, Threshold};
@@ -250,6 +250,9 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     }
     let mut config = RunConfig::with_tolerance(args.tolerance);
     config.contour = opts.clone();
+    config.outputs =
+        OutputOptions::from_formats(&args.formats).map_err(|e| Error::bad_input("--formats", e))?;
+    config.outputs.samples = args.write_samples;
     config.pipeline.channel_depth = args.pipeline.channel_depth.max(1);
     if let Some(c) = args.cell {
         if !(c.is_finite() && c > 0.0) {
@@ -360,10 +363,12 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         for w in &report.warnings {
             eprintln!("bskin: warning: {w}");
         }
+        let mut names: Vec<String> = report.files.iter().map(|f| f.name.clone()).collect();
+        names.push(s8_write::REPORT_FILE.to_string());
         eprintln!(
-            "bskin: wrote {} and {}",
-            report_path.display(),
-            out.join(s8_write::MESH_FILE).display()
+            "bskin: wrote {} in {}",
+            names.join(", "),
+            report_path.parent().unwrap_or(out).display()
         );
     }
     Ok(())

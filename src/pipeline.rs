@@ -251,6 +251,7 @@ pub fn run_surfaces(
                 out_dir,
                 config.tolerance_mm,
                 config.mesh_samples_per_span,
+                &config.outputs,
                 ctl,
             ),
         );

@@ -1,7 +1,12 @@
-//! Formats read and written: contour NDJSON, and atomic (write-then-rename) output files.
+//! Formats read and written: contour NDJSON, STL, STEP, IGES, report and sample JSON, and
+//! atomic (write-then-rename) output files.
 
 pub mod atomic;
+pub mod cad;
+pub mod iges;
 pub mod listing;
 pub mod ndjson;
 pub mod report;
+pub mod samples;
+pub mod step;
 pub mod stl;

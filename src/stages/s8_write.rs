@@ -1,6 +1,9 @@
 //! Stage 8: writers. Surfaces arrive in region order; each is tessellated and streamed into
-//! `mesh.stl`, and summarised for `report.json`. Files are written under temporary names and
-//! renamed only when complete, so a failed or interrupted run leaves no half-written output.
+//! `mesh.stl`, and summarised for `report.json`. The CAD files (`surfaces.step`,
+//! `surfaces.igs`) and the optional `samples.json` need every surface, so the surfaces are
+//! kept as they arrive and those files are written at the end, in region order. Which files
+//! are written is [`OutputOptions`]. Files are written under temporary names and renamed only
+//! when complete, so a failed or interrupted run leaves no half-written output.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -9,7 +12,10 @@ use crossbeam_channel::Receiver;
 
 use super::s7_skinning::Surface;
 use super::{Control, StageStats};
+use crate::bspline::SkinnedSurface;
+use crate::config::OutputOptions;
 use crate::io::atomic::AtomicFile;
+use crate::io::cad::CadMeta;
 use crate::io::report::{FileReport, Report, SurfaceReport};
 use crate::io::stl::StlWriter;
 use crate::mesh::tessellate;
@@ -19,6 +25,9 @@ use crate::{Error, Result};
 pub const STAGE: &str = "write";
 
 pub const MESH_FILE: &str = "mesh.stl";
+pub const STEP_FILE: &str = "surfaces.step";
+pub const IGES_FILE: &str = "surfaces.igs";
+pub const SAMPLES_FILE: &str = "samples.json";
 pub const REPORT_FILE: &str = "report.json";
 
 /// What the writers produced.
@@ -75,6 +84,7 @@ pub fn run(
     out_dir: &Path,
     tolerance: f64,
     samples_per_span: usize,
+    outputs: &OutputOptions,
     ctl: &Control,
 ) -> Result<Written> {
     let mut written = Written {
@@ -86,24 +96,71 @@ pub fn run(
     };
     let mesh_path = out_dir.join(MESH_FILE);
     let err = output_error(&mesh_path);
-    let mut stl = StlWriter::new(
-        AtomicFile::create(&mesh_path)?,
-        "bskin mesh, patient LPS mm",
-    )
-    .map_err(&err)?;
+    let mut stl = if outputs.stl {
+        Some(
+            StlWriter::new(
+                AtomicFile::create(&mesh_path)?,
+                "bskin mesh, patient LPS mm",
+            )
+            .map_err(&err)?,
+        )
+    } else {
+        None
+    };
+    let keep = outputs.step || outputs.iges || outputs.samples;
+    let mut kept: Vec<SkinnedSurface> = Vec::new();
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
-        let tris = tessellate(&s.surface, samples_per_span);
-        stl.write_triangles(&tris).map_err(&err)?;
-        written.surfaces.push(summarise(&s, tolerance, tris.len()));
+        let mut triangles = 0;
+        if let Some(stl) = stl.as_mut() {
+            let tris = tessellate(&s.surface, samples_per_span);
+            stl.write_triangles(&tris).map_err(&err)?;
+            triangles = tris.len();
+        }
+        written.surfaces.push(summarise(&s, tolerance, triangles));
+        if keep {
+            kept.push(s.surface);
+        }
         written.stats.busy += t.elapsed();
         written.stats.items += 1;
     }
     ctl.check()?;
-    let file = stl.finish().map_err(&err)?;
-    file.commit()?;
-    written.files.push(file_report(&mesh_path)?);
+    let t = Instant::now();
+    if let Some(stl) = stl {
+        let file = stl.finish().map_err(&err)?;
+        file.commit()?;
+        written.files.push(file_report(&mesh_path)?);
+    }
+    let refs: Vec<&SkinnedSurface> = kept.iter().collect();
+    type Writer = fn(&mut AtomicFile, &[&SkinnedSurface], &CadMeta) -> std::io::Result<()>;
+    let writers: [(bool, &str, Writer); 3] = [
+        (outputs.step, STEP_FILE, |f, s, m| {
+            crate::io::step::write_step(f, s, m)
+        }),
+        (outputs.iges, IGES_FILE, |f, s, m| {
+            crate::io::iges::write_iges(f, s, m)
+        }),
+        (outputs.samples, SAMPLES_FILE, |f, s, _| {
+            crate::io::samples::write_samples(f, s)
+        }),
+    ];
+    for (on, name, write) in writers {
+        if !on {
+            continue;
+        }
+        ctl.check()?;
+        let path = out_dir.join(name);
+        let meta = CadMeta {
+            file_name: name.to_string(),
+            ..Default::default()
+        };
+        let mut f = AtomicFile::create(&path)?;
+        write(&mut f, &refs, &meta).map_err(output_error(&path))?;
+        f.commit()?;
+        written.files.push(file_report(&path)?);
+    }
+    written.stats.busy += t.elapsed();
     Ok(written)
 }
 
