@@ -90,6 +90,13 @@ impl AtomicFile {
         };
         match self.writer.into_inner().map_err(|e| fail(e.into_error()))? {
             Sink::Temporary(tmp) => {
+                // Temporary files are created private (0600); outputs are ordinary files.
+                #[cfg(unix)]
+                {
+                    use std::os::unix::fs::PermissionsExt;
+                    let mode = std::fs::Permissions::from_mode(0o644);
+                    tmp.as_file().set_permissions(mode).map_err(fail)?;
+                }
                 tmp.as_file().sync_all().map_err(fail)?;
                 tmp.persist(&path).map_err(|e| fail(e.error))?;
             }
