@@ -30,6 +30,7 @@ pub trait SliceImages: Sync {
 pub fn run(
     source: &dyn SliceImages,
     batch: usize,
+    pool: &rayon::ThreadPool,
     out: Sender<SliceImage>,
     ctl: &Control,
 ) -> Result<StageStats> {
@@ -43,10 +44,13 @@ pub fn run(
         ctl.check()?;
         let end = (start + batch.max(1)).min(n);
         let t = Instant::now();
-        let images: Vec<Result<SliceImage>> = (start..end)
-            .into_par_iter()
-            .map(|i| source.load(i))
-            .collect();
+        // Only the batch runs in the pool; this loop blocks on the channel, so it stays here.
+        let images: Vec<Result<SliceImage>> = pool.install(|| {
+            (start..end)
+                .into_par_iter()
+                .map(|i| source.load(i))
+                .collect()
+        });
         stats.busy += t.elapsed();
         for image in images {
             let image = image?;

@@ -56,6 +56,7 @@ pub fn run(
     input: Receiver<SliceImage>,
     opts: &ContourOptions,
     batch: usize,
+    pool: &rayon::ThreadPool,
     out: Sender<CompiledSection>,
     ctl: &Control,
 ) -> Result<StageStats> {
@@ -75,10 +76,12 @@ pub fn run(
             }
         }
         let t = Instant::now();
-        let sections: Vec<Result<CompiledSection>> = images
-            .par_iter()
-            .map(|image| compile(image, opts))
-            .collect();
+        let sections: Vec<Result<CompiledSection>> = pool.install(|| {
+            images
+                .par_iter()
+                .map(|image| compile(image, opts))
+                .collect()
+        });
         images.clear();
         stats.busy += t.elapsed();
         for section in sections {
