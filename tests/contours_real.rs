@@ -11,7 +11,9 @@ use bskin::pipeline::run_contours;
 use bskin::stages::Control;
 
 fn shared(sub: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(sub);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data")
+        .join(sub);
     if p.exists() {
         Some(p)
     } else {
@@ -26,16 +28,33 @@ fn contours_of(sub: &str, slices: usize) {
     let scan = dicom::scan(&dir).unwrap();
     let series = dicom::select_series(&scan, None, &dir).unwrap().clone();
     let mut last_height = f64::NEG_INFINITY;
-    let summary = run_contours(&series, &ContoursConfig::default(), &Control::new(), &mut |c| {
-        let s = &c.section;
-        assert!(s.frame.height() > last_height, "{sub}: sections in ascending height");
-        last_height = s.frame.height();
-        for k in &s.contours {
-            assert!(k.points.len() >= 3 && is_simple(&k.points), "{sub}: slice {} contour not simple", s.index);
-            assert_eq!(signed_area(&k.points) < 0.0, k.hole, "{sub}: slice {} orientation", s.index);
-        }
-        Ok(())
-    })
+    let summary = run_contours(
+        &series,
+        &ContoursConfig::default(),
+        &Control::new(),
+        &mut |c| {
+            let s = &c.section;
+            assert!(
+                s.frame.height() > last_height,
+                "{sub}: sections in ascending height"
+            );
+            last_height = s.frame.height();
+            for k in &s.contours {
+                assert!(
+                    k.points.len() >= 3 && is_simple(&k.points),
+                    "{sub}: slice {} contour not simple",
+                    s.index
+                );
+                assert_eq!(
+                    signed_area(&k.points) < 0.0,
+                    k.hole,
+                    "{sub}: slice {} orientation",
+                    s.index
+                );
+            }
+            Ok(())
+        },
+    )
     .unwrap();
     eprintln!(
         "{sub}: {} slices, {} contours ({} holes), {} points before compression, {} after, {:.2} s",
@@ -48,7 +67,10 @@ fn contours_of(sub: &str, slices: usize) {
     );
     assert_eq!(summary.sections, slices);
     assert!(summary.contours > slices / 2, "{sub}: bone on most slices");
-    assert!(summary.points_compressed < summary.points_raw, "{sub}: compression");
+    assert!(
+        summary.points_compressed < summary.points_raw,
+        "{sub}: compression"
+    );
 }
 
 #[test]
