@@ -70,12 +70,13 @@
 use rayon::prelude::*;
 
 use super::distance_map::{
-    bbox_of, nearest_contours, signed_distance, validate_polygons, Grid, NearestContours,
+    bbox_of, mark_label_band, nearest_contours_within, signed_distance, validate_polygons, Grid,
+    NearestContours, SeedField,
 };
 use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
 use super::zones::{
-    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops,
+    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops, Window,
 };
 use super::GeometryError;
 
@@ -189,6 +190,35 @@ pub fn intermediate_contours_at(
     intermediate_contours_with(lower, upper, cell_mm, Some(t))
 }
 
+/// Margin (cells) around the zero sets within which the distance fields are made exact:
+/// the seed distances elsewhere exceed the true ones by less than 2.5 cells, so beyond this
+/// margin their sign, and that of any `φ_t`, is certain one cell further on as well.
+pub(crate) const EXACT_MARGIN_CELLS: f64 = 5.0;
+
+/// The samples where the fields must be exact: where `∂M_t` can pass for some `t` in (0, 1)
+/// (not deeper than the margin inside both sections nor farther outside both: there every
+/// `φ_t` keeps the sign of both), and around the zones' boundaries of either section. Away
+/// from these, marching squares only needs signs, which the seed distances give (the inside
+/// mask is exact and their error is below the margin). This is most of the raster on
+/// consecutive CT slices, which overlap almost everywhere.
+fn exact_band(grid: &Grid, lower: &SeedField, upper: &SeedField) -> Vec<bool> {
+    let m = EXACT_MARGIN_CELLS * grid.cell_mm;
+    let mut mask: Vec<bool> = (0..grid.len())
+        .into_par_iter()
+        .map(|k| {
+            let (a, b) = (lower.signed(k), upper.signed(k));
+            !((a > m && b > m) || (a < -m && b < -m))
+        })
+        .collect();
+    mark_label_band(
+        grid,
+        &[lower, upper],
+        EXACT_MARGIN_CELLS as usize,
+        &mut mask,
+    );
+    mask
+}
+
 /// Which contour a zone belongs to: lower (`true`) or upper, and its index in its section.
 type Job = (bool, usize);
 
@@ -224,17 +254,31 @@ fn attempt(
         .map(|(&a, &b)| (-(wl * a as f64 + wu * b as f64)) as f32)
         .collect();
     let m_empty = !neg_phi.iter().any(|&v| v >= 0.0);
+    // Zone i is inside only where M_t is and i is the nearest contour of its section: each
+    // zone's loops are extracted within the window of those samples, not the whole raster.
+    let in_m = |k: usize| neg_phi[k] >= 0.0;
+    let (win_lower, win_upper) = rayon::join(
+        || {
+            let count = jobs.iter().filter(|j| j.0).count();
+            Window::per_label(grid, count, &in_m, &|k| near_lower.label1[k])
+        },
+        || {
+            let count = jobs.iter().filter(|j| !j.0).count();
+            Window::per_label(grid, count, &in_m, &|k| near_upper.label1[k])
+        },
+    );
     let zones: Vec<(Vec<Vec<Point>>, Option<usize>, usize, f64)> = jobs
         .par_iter()
         .map(|&(is_lower, i)| {
-            if m_empty {
+            let window = if is_lower { win_lower[i] } else { win_upper[i] };
+            let Some(window) = window.filter(|_| !m_empty) else {
                 return (Vec::new(), None, 0, 0.0);
-            }
+            };
             let near = if is_lower { near_lower } else { near_upper };
             // Rounded as the f32 field is, so every step sees what marching squares saw.
             let g = |k: usize| neg_phi[k] as f64;
             let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
-            let loops = zone_loops(grid, &g, &n);
+            let loops = zone_loops(grid, &g, &n, Some(window));
             let (best, count, total) = largest_loop(&loops, true);
             (loops, best, count, total)
         })
@@ -310,10 +354,16 @@ fn intermediate_contours_with(
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
     let cell = grid.cell_mm;
 
-    // The distance fields do not depend on t: every attempt below reuses them.
+    // The distance fields do not depend on t: every attempt below reuses them. They are
+    // exact only where the output can depend on their values (see `exact_band`).
+    let (seed_lower, seed_upper) = rayon::join(
+        || SeedField::new(&grid, lower, true),
+        || SeedField::new(&grid, upper, true),
+    );
+    let exact = exact_band(&grid, &seed_lower, &seed_upper);
     let (near_lower, near_upper) = rayon::join(
-        || nearest_contours(&grid, lower, true),
-        || nearest_contours(&grid, upper, true),
+        || nearest_contours_within(&grid, seed_lower, Some(&exact)),
+        || nearest_contours_within(&grid, seed_upper, Some(&exact)),
     );
     let jobs: Vec<Job> = (0..lower.len())
         .map(|i| (true, i))
