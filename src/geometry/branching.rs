@@ -222,6 +222,10 @@ fn exact_band(grid: &Grid, lower: &SeedField, upper: &SeedField) -> Vec<bool> {
 /// Which contour a zone belongs to: lower (`true`) or upper, and its index in its section.
 type Job = (bool, usize);
 
+/// All loops of `M_t ∩ zone`, the largest counter-clockwise one, how many counter-clockwise
+/// loops there are and their total area (mm²).
+type ZoneLoops = (Vec<Vec<Point>>, Option<usize>, usize, f64);
+
 /// The zone loops of every contour for one position `t` of the intermediate plane.
 struct Attempt {
     t: f64,
@@ -230,7 +234,7 @@ struct Attempt {
     m_empty: bool,
     /// Per job: all loops of `M_t ∩ zone`, and the largest counter-clockwise one with the
     /// count of counter-clockwise loops and their total area.
-    zones: Vec<(Vec<Vec<Point>>, Option<usize>, usize, f64)>,
+    zones: Vec<ZoneLoops>,
     /// Whether some lower zone, some upper zone, meets `M_t` in several pieces.
     split: [bool; 2],
     /// Area of the pieces that would be dropped (all but the largest of each zone), mm².
@@ -239,13 +243,16 @@ struct Attempt {
     empty: usize,
 }
 
+/// The zone loops at `t`. With `prune = Some((side, bound))`, `None` when the zones of
+/// `side` (lower when true) alone are split and discard at least `bound` mm².
 fn attempt(
     grid: &Grid,
     near_lower: &NearestContours,
     near_upper: &NearestContours,
     jobs: &[Job],
     t: f64,
-) -> Attempt {
+    prune: Option<(bool, f64)>,
+) -> Option<Attempt> {
     let (wl, wu) = (1.0 - t, t);
     let neg_phi: Vec<f32> = near_lower
         .min1
@@ -267,22 +274,48 @@ fn attempt(
             Window::per_label(grid, count, &in_m, &|k| near_upper.label1[k])
         },
     );
-    let zones: Vec<(Vec<Vec<Point>>, Option<usize>, usize, f64)> = jobs
-        .par_iter()
-        .map(|&(is_lower, i)| {
-            let window = if is_lower { win_lower[i] } else { win_upper[i] };
-            let Some(window) = window.filter(|_| !m_empty) else {
-                return (Vec::new(), None, 0, 0.0);
-            };
-            let near = if is_lower { near_lower } else { near_upper };
-            // Rounded as the f32 field is, so every step sees what marching squares saw.
-            let g = |k: usize| neg_phi[k] as f64;
-            let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
-            let loops = zone_loops(grid, &g, &n, Some(window));
-            let (best, count, total) = largest_loop(&loops, true);
-            (loops, best, count, total)
-        })
-        .collect();
+    let extract = |ids: &[usize]| -> Vec<ZoneLoops> {
+        ids.par_iter()
+            .map(|&j| {
+                let (is_lower, i) = jobs[j];
+                let window = if is_lower { win_lower[i] } else { win_upper[i] };
+                let Some(window) = window.filter(|_| !m_empty) else {
+                    return (Vec::new(), None, 0, 0.0);
+                };
+                let near = if is_lower { near_lower } else { near_upper };
+                // Rounded as the f32 field is, so every step sees what marching squares saw.
+                let g = |k: usize| neg_phi[k] as f64;
+                let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
+                let loops = zone_loops(grid, &g, &n, Some(window));
+                let (best, count, total) = largest_loop(&loops, true);
+                (loops, best, count, total)
+            })
+            .collect()
+    };
+    // The side being mended first: when it alone already discards as much as the best plane
+    // so far, this plane cannot be chosen and the other side is not worth extracting.
+    let (first, rest): (Vec<usize>, Vec<usize>) =
+        (0..jobs.len()).partition(|&j| prune.is_none_or(|(side, _)| jobs[j].0 == side));
+    let mut zones: Vec<Option<ZoneLoops>> = (0..jobs.len()).map(|_| None).collect();
+    for (&j, z) in first.iter().zip(extract(&first)) {
+        zones[j] = Some(z);
+    }
+    if let Some((_, bound)) = prune {
+        let (mut split, mut discarded) = (false, 0.0);
+        for (loops, best, count, total) in zones.iter().flatten() {
+            if let (Some(b), true) = (best, *count > 1) {
+                split = true;
+                discarded += total - signed_area(&loops[*b]);
+            }
+        }
+        if split && discarded >= bound {
+            return None;
+        }
+    }
+    for (&j, z) in rest.iter().zip(extract(&rest)) {
+        zones[j] = Some(z);
+    }
+    let zones: Vec<ZoneLoops> = zones.into_iter().flatten().collect();
     let mut split = [false; 2];
     let (mut discarded, mut empty) = (0.0, 0);
     for (&(is_lower, _), (loops, best, count, total)) in jobs.iter().zip(&zones) {
@@ -295,7 +328,7 @@ fn attempt(
             None => empty += 1,
         }
     }
-    Attempt {
+    Some(Attempt {
         t,
         neg_phi,
         m_empty,
@@ -303,7 +336,7 @@ fn attempt(
         split,
         discarded,
         empty,
-    }
+    })
 }
 
 /// The construction, at `t` when given, else at the `t` the rule of the module docs picks.
@@ -373,13 +406,19 @@ fn intermediate_contours_with(
     // Choose the plane. A lower zone that meets M_t in several pieces means that contour
     // splits between the sections below the plane: moving the plane towards A1 (t → 0)
     // brings M_t towards A1, where the zone meets it in one piece. Likewise upwards.
-    let mut chosen = attempt(
+    // Without pruning an attempt always comes back.
+    let Some(mut chosen) = attempt(
         &grid,
         &near_lower,
         &near_upper,
         &jobs,
         fixed_t.unwrap_or(0.5),
-    );
+        None,
+    ) else {
+        return Err(GeometryError::Degenerate(
+            "internal: the plane at t = 0.5 was pruned".to_string(),
+        ));
+    };
     if fixed_t.is_none() && chosen.split[0] != chosen.split[1] {
         let first = (chosen.split, chosen.discarded);
         let towards_lower = chosen.split[0];
@@ -388,7 +427,10 @@ fn intermediate_contours_with(
         for &s in &T_TOWARDS_LOWER {
             let t = if towards_lower { s } else { 1.0 - s };
             tried.push(t);
-            let a = attempt(&grid, &near_lower, &near_upper, &jobs, t);
+            let prune = Some((towards_lower, chosen.discarded));
+            let Some(a) = attempt(&grid, &near_lower, &near_upper, &jobs, t, prune) else {
+                continue;
+            };
             // A plane that loses a zone altogether is no improvement.
             if a.empty > empty_at_half {
                 continue;

@@ -218,7 +218,7 @@ pub(crate) fn largest_loop(loops: &[Vec<Point>], ccw: bool) -> (Option<usize>, u
         }
         count += 1;
         total += a.abs();
-        if best.map_or(true, |(_, b)| a.abs() > b) {
+        if best.is_none_or(|(_, b)| a.abs() > b) {
             best = Some((k, a.abs()));
         }
     }
