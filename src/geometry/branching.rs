@@ -32,6 +32,13 @@
 //! warning says so. The caller lifts the intermediate contours to `z1 + t·(z2 − z1)`.
 //! The distance fields do not depend on `t`: only `φ_t` and the zone loops are recomputed.
 //!
+//! Cost: the distance fields are made exact (foot-point walk and sweeps) only where the output
+//! reads their values, where `∂M_t` can pass for some `t` (not deep inside both sections nor
+//! far outside both) and around the zone boundaries; elsewhere the seed distances give the
+//! signs (see `exact_band`). Each zone is extracted in the window of the samples where it can
+//! be inside, and a plane position whose mended side alone already discards as much as the
+//! best so far is not extracted further.
+//!
 //! Making the shared edges identical, not just close:
 //! - a sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit (both come from the same
 //!   nearest-two distances), and an exact tie is given to one side only;

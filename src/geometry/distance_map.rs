@@ -21,6 +21,14 @@
 //! (wiggly but simple) polygons a few isolated samples keep a foot point on a neighbouring
 //! wiggle, up to 0.06 cell (see the tests).
 //!
+//! The walk and the sweeps are most of the cost, and a caller rarely needs exact values
+//! everywhere: [`SeedField`] stops after the transform (every sample gets the exact distance
+//! to its seed's segment: never below the true distance, above it by less than 2.5 cells),
+//! and [`nearest_contours_within`] walks and sweeps only the samples of a mask the caller
+//! builds from it (branching: where `∂M_t` can pass and around zone boundaries; capping:
+//! near the boundary, the ridge and the deepest samples). Outside the mask values are the
+//! seed distances, with exact signs.
+//!
 //! Invariants: deterministic (rayon only splits independent rows/columns), no panics on any
 //! finite input; distances are never below the exact distance by more than rounding, since
 //! each is the exact distance to some boundary segment.
