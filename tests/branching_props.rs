@@ -2,7 +2,9 @@
 //! force, intermediate contours of 1-to-1, 1-to-2, 2-to-2, 1-to-3 and random m-to-n problems,
 //! and caps. Each test prints the accuracy it measured (run with `--nocapture` to see it).
 
-use bskin::geometry::branching::{intermediate_contours, Intermediate, IntermediateContours};
+use bskin::geometry::branching::{
+    intermediate_contours, intermediate_contours_at, Intermediate, IntermediateContours,
+};
 use bskin::geometry::capping::cap;
 use bskin::geometry::distance_map::{signed_distance, Grid};
 use bskin::geometry::polygon::{boundary_distance, contains, is_simple, signed_area, Point};
@@ -371,7 +373,12 @@ proptest! {
     /// Random star-shaped m-to-n problems: loops are simple, counter-clockwise, inside the
     /// footprint A1 ∪ A2 (plus one cell), and both sides tile M alike.
     #[test]
-    fn random_m_to_n_problems(seed in any::<u64>(), m in 1usize..=2, n in 1usize..=3) {
+    fn random_m_to_n_problems(
+        seed in any::<u64>(),
+        m in 1usize..=2,
+        n in 1usize..=3,
+        t in 0.1f64..0.9,
+    ) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let cell = 0.15;
         // Contours of one section along x, far enough apart not to touch (radius ≤ 1.4 r).
@@ -388,27 +395,34 @@ proptest! {
             .collect();
         let a1: Vec<&[Point]> = lower.iter().map(|v| v.as_slice()).collect();
         let a2: Vec<&[Point]> = upper.iter().map(|v| v.as_slice()).collect();
-        let r = intermediate_contours(&a1, &a2, cell).unwrap();
-        prop_assert_eq!(r.lower.len(), m);
-        prop_assert_eq!(r.upper.len(), n);
-        check_loops_valid(&r);
-        for lp in loops(&r.lower).into_iter().chain(loops(&r.upper)) {
-            for &p in lp.iter() {
-                let inside = a1.iter().chain(a2.iter()).any(|c| contains(c, p));
-                let near = a1.iter().chain(a2.iter())
-                    .map(|c| boundary_distance(c, p)).fold(f64::INFINITY, f64::min);
-                prop_assert!(inside || near <= cell, "point {:?} outside the footprint", p);
+        // The plane the rule chooses, and a random one: the same properties hold at any t.
+        let chosen = intermediate_contours(&a1, &a2, cell).unwrap();
+        let forced = intermediate_contours_at(&a1, &a2, cell, t).unwrap();
+        for r in [&chosen, &forced] {
+            prop_assert!(r.t > 0.0 && r.t < 1.0);
+            prop_assert_eq!(r.lower.len(), m);
+            prop_assert_eq!(r.upper.len(), n);
+            check_loops_valid(r);
+            for lp in loops(&r.lower).into_iter().chain(loops(&r.upper)) {
+                for &p in lp.iter() {
+                    let inside = a1.iter().chain(a2.iter()).any(|c| contains(c, p));
+                    let near = a1.iter().chain(a2.iter())
+                        .map(|c| boundary_distance(c, p)).fold(f64::INFINITY, f64::min);
+                    prop_assert!(inside || near <= cell, "point {:?} outside the footprint", p);
+                }
+            }
+            if r.warnings.is_empty() {
+                let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
+                prop_assert!((al - au).abs() < 0.01 * al.max(1.0), "areas {} vs {}", al, au);
+                // Usually 0 (every vertex on ∂M shared bit for bit): 190 of 191 of seeds
+                // 0..300 without warnings, the other 0.06 cell (a corner the tracing gave up
+                // on).
+                prop_assert!(tiling_gap(r, cell) < 0.5 * cell);
             }
         }
-        if r.warnings.is_empty() {
-            let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
-            prop_assert!((al - au).abs() < 0.01 * al.max(1.0), "areas {} vs {}", al, au);
-            // Usually 0 (every vertex on ∂M shared bit for bit): 190 of 191 of seeds 0..300
-            // without warnings, the other 0.06 cell (a corner the tracing gave up on).
-            prop_assert!(tiling_gap(&r, cell) < 0.5 * cell);
-        }
         // Deterministic: a second run is identical.
-        prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);
+        prop_assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), chosen);
+        prop_assert_eq!(intermediate_contours_at(&a1, &a2, cell, t).unwrap(), forced);
     }
 }
 
@@ -470,27 +484,181 @@ proptest! {
     }
 }
 
+/// Signed distance at `t` of the way between the sections: `(1 − t)·d_A1 + t·d_A2`.
+fn phi_t(a1: &[&[Point]], a2: &[&[Point]], t: f64, p: Point) -> f64 {
+    (1.0 - t) * union_sd(a1, p) + t * union_sd(a2, p)
+}
+
+/// The checks of a clean result at its `t`: loops valid, one per contour, both sides tile
+/// the same `M_t` (shared ∂M vertices, equal areas), and the lower loops of a single lower
+/// contour lie on `∂M_t` where they are not on a bisector.
+fn check_clean_at_t(
+    name: &str,
+    r: &IntermediateContours,
+    a1: &[&[Point]],
+    a2: &[&[Point]],
+    cell: f64,
+) {
+    assert!(
+        r.warnings.is_empty(),
+        "{name} at t = {}: {:?}",
+        r.t,
+        r.warnings
+    );
+    check_loops_valid(r);
+    assert_eq!(loops(&r.lower).len(), a1.len(), "{name} at t = {}", r.t);
+    assert_eq!(loops(&r.upper).len(), a2.len(), "{name} at t = {}", r.t);
+    let (gap, same, total) = tiling_gap_counts(r, cell);
+    let (al, au) = (area_sum(&r.lower), area_sum(&r.upper));
+    let worst_phi = if a1.len() == 1 {
+        loops(&r.lower)[0]
+            .iter()
+            .map(|&p| phi_t(a1, a2, r.t, p).abs())
+            .fold(0.0, f64::max)
+    } else {
+        0.0
+    };
+    eprintln!(
+        "{name} at t = {}: tiling gap {:.2e} cell, areas {al:.4} / {au:.4} mm², {same} of \
+         {total} ∂M_t vertices identical on both sides, |φ_t| on a single lower loop ≤ {:.4} \
+         cell",
+        r.t,
+        gap / cell,
+        worst_phi / cell
+    );
+    assert!(gap < 0.01 * cell, "{name} at t = {}: gap {gap}", r.t);
+    assert!(
+        same + 2 >= total,
+        "{name} at t = {}: {same} of {total} shared",
+        r.t
+    );
+    assert!(
+        (al - au).abs() < 0.003 * al,
+        "{name} at t = {}: areas {al} vs {au}",
+        r.t
+    );
+    assert!(
+        worst_phi < 0.3 * cell,
+        "{name} at t = {}: |φ_t| {worst_phi}",
+        r.t
+    );
+}
+
 #[test]
-fn contour_splitting_below_the_mid_plane_keeps_the_largest_piece() {
-    // A long ellipse under two discs far apart at its ends: M is in two pieces, so the lower
-    // contour's zone (everything) meets M twice.
+fn contour_splitting_below_the_mid_plane_moves_the_plane_down() {
+    // A long ellipse under two discs far apart at its ends: M_½ is in two pieces, so the
+    // lower contour's zone (everything) meets it twice. Nearer the ellipse the intermediate
+    // section is one piece again.
     let cell = 0.15;
     let lower = ellipse(0.0, 0.0, 30.0, 4.0, 400);
     let left = ellipse(-24.0, 0.0, 5.0, 5.0, 200);
     let right = ellipse(25.0, 0.0, 4.0, 4.0, 200);
-    let r = intermediate_contours(&[&lower], &[&left, &right], cell).unwrap();
-    check_loops_valid(&r);
+    let (a1, a2): (Vec<&[Point]>, Vec<&[Point]>) = (vec![&lower], vec![&left, &right]);
+    let half = intermediate_contours_at(&a1, &a2, cell, 0.5).unwrap();
     assert!(
-        r.warnings
+        half.warnings
             .iter()
             .any(|w| w.contains("lower contour 0") && w.contains("2 pieces")),
         "{:?}",
-        r.warnings
+        half.warnings
     );
+    let r = intermediate_contours(&a1, &a2, cell).unwrap();
+    assert!(r.t < 0.5, "t = {}", r.t);
+    check_clean_at_t("band under two discs", &r, &a1, &a2, cell);
     let Intermediate::Loop(lo) = &r.lower[0] else {
         panic!()
     };
-    // The larger piece is the one over the larger disc.
-    assert!(contains(lo, [-24.0, 0.0]) && !contains(lo, [25.0, 0.0]));
-    assert!(loops(&r.upper).len() == 2);
+    // One piece over both discs.
+    assert!(contains(lo, [-24.0, 0.0]) && contains(lo, [25.0, 0.0]));
+    // Deterministic.
+    assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r);
+}
+
+#[test]
+fn contour_merging_above_the_mid_plane_moves_the_plane_up() {
+    // The same problem upside down: the upper band's zone splits at t = ½, so t goes up.
+    let cell = 0.15;
+    let band = ellipse(0.0, 0.0, 30.0, 4.0, 400);
+    let left = ellipse(-24.0, 0.0, 5.0, 5.0, 200);
+    let right = ellipse(25.0, 0.0, 4.0, 4.0, 200);
+    let (a1, a2): (Vec<&[Point]>, Vec<&[Point]>) = (vec![&left, &right], vec![&band]);
+    let r = intermediate_contours(&a1, &a2, cell).unwrap();
+    assert!(r.t > 0.5, "t = {}", r.t);
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    check_loops_valid(&r);
+    assert_eq!((loops(&r.lower).len(), loops(&r.upper).len()), (2, 1));
+    let Intermediate::Loop(up) = &r.upper[0] else {
+        panic!()
+    };
+    assert!(contains(up, [-24.0, 0.0]) && contains(up, [25.0, 0.0]));
+    // Mirror image of the downward case: the same plane, mirrored.
+    let down = intermediate_contours(&[&band], &[&left, &right], cell).unwrap();
+    assert!(
+        (r.t - (1.0 - down.t)).abs() < 1e-12,
+        "{} vs {}",
+        r.t,
+        down.t
+    );
+}
+
+#[test]
+fn a_split_on_both_sides_keeps_the_mid_plane_with_a_warning() {
+    // One problem holding a band under two discs (a lower zone splits at t = ½ and mends
+    // towards 0) beside two discs under a band (an upper zone splits and mends towards 1):
+    // no single plane mends both.
+    let cell = 0.2;
+    let band_lo = ellipse(0.0, 0.0, 30.0, 4.0, 400);
+    let l1 = ellipse(-24.0, 0.0, 5.0, 5.0, 200);
+    let l2 = ellipse(25.0, 0.0, 4.0, 4.0, 200);
+    let band_up = ellipse(0.0, 40.0, 30.0, 4.0, 400);
+    let u1 = ellipse(-24.0, 40.0, 5.0, 5.0, 200);
+    let u2 = ellipse(25.0, 40.0, 4.0, 4.0, 200);
+    let r = intermediate_contours(&[&band_lo, &u1, &u2], &[&l1, &l2, &band_up], cell).unwrap();
+    assert_eq!(r.t, 0.5);
+    assert!(
+        r.warnings.iter().any(|w| w.contains("both sections")),
+        "{:?}",
+        r.warnings
+    );
+    check_loops_valid(&r);
+}
+
+#[test]
+fn properties_hold_at_any_plane_position() {
+    let cell = 0.1;
+    let lower = ellipse(0.0, 0.0, 30.0, 12.0, 720);
+    let d1 = ellipse(-15.0, 0.0, 10.0, 10.0, 360);
+    let d2 = ellipse(15.0, 0.0, 10.0, 10.0, 360);
+    let w = ellipse(0.0, 0.0, 26.0, 9.0, 600);
+    let t3: Vec<Vec<Point>> = [-17.0, 0.0, 17.0]
+        .iter()
+        .map(|&x| ellipse(x, 0.0, 7.0, 7.0, 300))
+        .collect();
+    type Section<'a> = Vec<&'a [Point]>;
+    let l1 = ellipse(-8.0, 0.0, 7.0, 7.0, 300);
+    let l2 = ellipse(8.0, 0.0, 7.0, 7.0, 300);
+    let u1 = ellipse(0.0, 6.0, 12.0, 5.0, 300);
+    let u2 = ellipse(0.0, -7.0, 12.0, 4.0, 300);
+    // Towards the section of several contours the intermediate section falls apart into
+    // their pieces (the single contour's zone then meets it several times): only the planes
+    // on the single contour's side, or near the middle, give one piece per zone.
+    let (down, up, mid) = (vec![0.08, 0.25, 0.5], vec![0.5, 0.75, 0.92], vec![0.5]);
+    let cases: Vec<(&str, Section, Section, Vec<f64>)> = vec![
+        ("1-to-2", vec![&lower], vec![&d1, &d2], down.clone()),
+        ("2-to-1", vec![&d1, &d2], vec![&lower], up.clone()),
+        ("1-to-3", vec![&w], vec![&t3[0], &t3[1], &t3[2]], down),
+        ("3-to-1", vec![&t3[0], &t3[1], &t3[2]], vec![&w], up),
+        ("2-to-2", vec![&l1, &l2], vec![&u1, &u2], mid),
+    ];
+    for (name, a1, a2, ts) in cases {
+        for t in ts {
+            let r = intermediate_contours_at(&a1, &a2, cell, t).unwrap();
+            assert_eq!(r.t, t);
+            check_clean_at_t(name, &r, &a1, &a2, cell);
+        }
+    }
+    let a = ellipse(0.0, 0.0, 5.0, 5.0, 100);
+    for bad in [0.0, 1.0, -0.1, f64::NAN] {
+        assert!(intermediate_contours_at(&[&a], &[&a], cell, bad).is_err());
+    }
 }

@@ -3,20 +3,41 @@
 //! In: the m lower contours (section A1, height z1) and the n upper contours (section A2,
 //! z2), filled, counter-clockwise, pairwise disjoint within a section, all in one plane frame
 //! (mm); and the raster cell (mm, e.g. a fifth of the fitting tolerance). Out: one
-//! intermediate contour per input contour on the mid-plane, lower contours first, each a
-//! counter-clockwise simple loop or, when degenerate, a point; plus warnings.
+//! intermediate contour per input contour on an intermediate plane, lower contours first,
+//! each a counter-clockwise simple loop or, when degenerate, a point; the plane's position
+//! `t` (fraction of the way from z1 to z2); plus warnings.
 //!
 //! The construction, in the paper's terms, with distance maps computed exactly:
-//! - the A1/A2 bisecting edges are the zero set of `φ_M = ½(d_A1 + d_A2)` (signed distances,
-//!   negative inside): the mid-section `M = {φ_M ≤ 0}` is the shape-based interpolation of the
-//!   two sections at `z_mid`;
+//! - the A1/A2 bisecting edges are the zero set of `φ_t = (1 − t)·d_A1 + t·d_A2` (signed
+//!   distances, negative inside): the intermediate section `M_t = {φ_t ≤ 0}` is the
+//!   shape-based interpolation of the two sections at `z1 + t·(z2 − z1)`. The paper uses the
+//!   mid-plane, `t = ½`;
 //! - the zone of lower contour `i` is `{ψ_i ≤ 0}` with `ψ_i = d_i − min_{j≠i} d_j` over the
 //!   lower contours (its boundary is the bisecting edges between colours of A1); likewise
 //!   for the upper contours among themselves;
-//! - the intermediate contour of lower contour `i` is the boundary of `M ∩ zone_i`, extracted
-//!   by marching squares on `min(−φ_M, −ψ_i) ≥ 0`. So the lower intermediate contours tile
-//!   `M`, the upper ones tile the same `M`, and neighbours share their bisecting edges (paper
-//!   Fig. 4: c21's contour is `{e1, e2, e7, e6}`).
+//! - the intermediate contour of lower contour `i` is the boundary of `M_t ∩ zone_i`,
+//!   extracted by marching squares on `min(−φ_t, −ψ_i) ≥ 0`. So the lower intermediate
+//!   contours tile `M_t`, the upper ones tile the same `M_t`, and neighbours share their
+//!   bisecting edges (paper Fig. 4: c21's contour is `{e1, e2, e7, e6}`).
+//!
+//! Choosing the plane (beyond the paper): when a lower contour splits between the sections
+//! below the mid-plane (a long band under two blobs far apart; the bottom of a standing
+//! torus), its zone meets `M_½` in several pieces and one intermediate contour cannot bound
+//! them. `M_t` moves towards A1 as `t → 0`, and there a single lower contour's zone meets it
+//! in one piece. So: try `t = ½`; if some lower zone meets `M_t` in several pieces, try the
+//! `t` of [`T_TOWARDS_LOWER`] in turn (0.35, 0.25, 0.15, 0.08); if some upper zone does, the
+//! same towards 1 (`1 − t`); stop at the first `t` where no zone of either side is split. If
+//! both sides split at `t = ½`, or no `t` tried mends it, the `t` with the least discarded
+//! area is kept (a `t` at which a zone misses `M_t` altogether is never preferred) and a
+//! warning says so. The caller lifts the intermediate contours to `z1 + t·(z2 − z1)`.
+//! The distance fields do not depend on `t`: only `φ_t` and the zone loops are recomputed.
+//!
+//! Cost: the distance fields are made exact (foot-point walk and sweeps) only where the output
+//! reads their values, where `∂M_t` can pass for some `t` (not deep inside both sections nor
+//! far outside both) and around the zone boundaries; elsewhere the seed distances give the
+//! signs (see `exact_band`). Each zone is extracted in the window of the samples where it can
+//! be inside, and a plane position whose mended side alone already discards as much as the
+//! best so far is not extracted further.
 //!
 //! Making the shared edges identical, not just close:
 //! - a sample on the `i`/`j` bisector has `ψ_i = −ψ_j` bit for bit (both come from the same
@@ -38,14 +59,12 @@
 //! other within 0.06 cell (a corner whose tracing gave up: a saddle or more than 6 cells).
 //!
 //! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
-//! - `M ∩ zone_i` in several pieces: the largest piece is kept. (This happens when a contour
-//!   really splits below the mid-plane, e.g. a long ellipse under two discs far apart at its
-//!   ends: `M` itself is in two pieces. The smaller piece is then covered by no intermediate
-//!   contour of that section; a caller that cares can add an intermediate level.)
-//! - a piece with holes (possible when `M` itself is annular): the holes are dropped;
-//! - `M ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
+//! - `M_t ∩ zone_i` in several pieces at the `t` kept (see above): the largest piece is kept.
+//!   The smaller pieces are then covered by no intermediate contour of that section;
+//! - a piece with holes (possible when `M_t` itself is annular): the holes are dropped;
+//! - `M_t ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
 //!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
-//! - `M` empty (no contour overlaps any other): every contour gets the point of largest
+//! - `M_t` empty (no contour overlaps any other): every contour gets the point of largest
 //!   distance inside it (its cap, as the paper does for degeneracy);
 //! - a raster over [`MAX_RASTER_CELLS`] samples: the cell is coarsened to fit;
 //! - contours of one section that overlap each other (the construction assumes disjoint
@@ -58,12 +77,13 @@
 use rayon::prelude::*;
 
 use super::distance_map::{
-    bbox_of, nearest_contours, signed_distance, validate_polygons, Grid, NearestContours,
+    bbox_of, mark_label_band, nearest_contours_within, signed_distance, validate_polygons, Grid,
+    NearestContours, SeedField,
 };
 use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
 use super::zones::{
-    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops,
+    insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops, Window,
 };
 use super::GeometryError;
 
@@ -86,8 +106,11 @@ pub enum Intermediate {
 }
 
 /// One intermediate contour per input contour, in input order.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct IntermediateContours {
+    /// Where the intermediate plane lies: the fraction of the way from the lower section to
+    /// the upper one (0.5, the paper's mid-plane, unless a zone splits there).
+    pub t: f64,
     pub lower: Vec<Intermediate>,
     pub upper: Vec<Intermediate>,
     pub warnings: Vec<String>,
@@ -134,10 +157,16 @@ pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     refine_innermost(&[contour], start, grid.cell_mm)
 }
 
+/// Positions of the intermediate plane tried when a lower zone meets `M_t` in several pieces
+/// (fractions of the way from the lower section to the upper one; an upper zone uses
+/// `1 − t`), in order after the paper's `t = 0.5`.
+pub const T_TOWARDS_LOWER: [f64; 4] = [0.35, 0.25, 0.15, 0.08];
+
 /// Intermediate contours of the m-to-n problem between `lower` (A1) and `upper` (A2), on a
-/// raster of `cell_mm` (coarsened with a warning past [`MAX_RASTER_CELLS`]). Holes are not
-/// part of a section here: a caller branching holes among themselves passes them reversed
-/// (as filled counter-clockwise contours).
+/// raster of `cell_mm` (coarsened with a warning past [`MAX_RASTER_CELLS`]), on the plane
+/// chosen by the rule of the module docs (`t = 0.5` unless a zone splits there). Holes are
+/// not part of a section here: a caller branching holes among themselves passes them
+/// reversed (as filled counter-clockwise contours).
 ///
 /// Errors: an empty section ([`GeometryError::Empty`]), a contour with fewer than 3 points
 /// ([`GeometryError::Degenerate`]), a non-finite coordinate ([`GeometryError::NonFinite`]), a
@@ -146,6 +175,183 @@ pub fn intermediate_contours(
     lower: &[&[Point]],
     upper: &[&[Point]],
     cell_mm: f64,
+) -> Result<IntermediateContours, GeometryError> {
+    intermediate_contours_with(lower, upper, cell_mm, None)
+}
+
+/// [`intermediate_contours`] on the plane at the fraction `t` (in `(0, 1)`) of the way from
+/// the lower section to the upper one, whatever the pieces: the construction with
+/// `φ_t = (1 − t)·d_A1 + t·d_A2` in place of `φ_M`. A `t` outside `(0, 1)` is an
+/// [`GeometryError::InvalidParameter`].
+pub fn intermediate_contours_at(
+    lower: &[&[Point]],
+    upper: &[&[Point]],
+    cell_mm: f64,
+    t: f64,
+) -> Result<IntermediateContours, GeometryError> {
+    if !(t > 0.0 && t < 1.0) {
+        return Err(GeometryError::InvalidParameter(format!(
+            "the intermediate plane must lie strictly between the sections, got t = {t}"
+        )));
+    }
+    intermediate_contours_with(lower, upper, cell_mm, Some(t))
+}
+
+/// Margin (cells) around the zero sets within which the distance fields are made exact:
+/// the seed distances elsewhere exceed the true ones by less than 2.5 cells, so beyond this
+/// margin their sign, and that of any `φ_t`, is certain one cell further on as well.
+pub(crate) const EXACT_MARGIN_CELLS: f64 = 5.0;
+
+/// The samples where the fields must be exact: where `∂M_t` can pass for some `t` in (0, 1)
+/// (not deeper than the margin inside both sections nor farther outside both: there every
+/// `φ_t` keeps the sign of both), and around the zones' boundaries of either section. Away
+/// from these, marching squares only needs signs, which the seed distances give (the inside
+/// mask is exact and their error is below the margin). This is most of the raster on
+/// consecutive CT slices, which overlap almost everywhere.
+fn exact_band(grid: &Grid, lower: &SeedField, upper: &SeedField) -> Vec<bool> {
+    let m = EXACT_MARGIN_CELLS * grid.cell_mm;
+    let mut mask: Vec<bool> = (0..grid.len())
+        .into_par_iter()
+        .map(|k| {
+            let (a, b) = (lower.signed(k), upper.signed(k));
+            !((a > m && b > m) || (a < -m && b < -m))
+        })
+        .collect();
+    mark_label_band(
+        grid,
+        &[lower, upper],
+        EXACT_MARGIN_CELLS as usize,
+        &mut mask,
+    );
+    mask
+}
+
+/// Which contour a zone belongs to: lower (`true`) or upper, and its index in its section.
+type Job = (bool, usize);
+
+/// All loops of `M_t ∩ zone`, the largest counter-clockwise one, how many counter-clockwise
+/// loops there are and their total area (mm²).
+type ZoneLoops = (Vec<Vec<Point>>, Option<usize>, usize, f64);
+
+/// The zone loops of every contour for one position `t` of the intermediate plane.
+struct Attempt {
+    t: f64,
+    /// `−φ_t` on the raster, non-negative on `M_t`.
+    neg_phi: Vec<f32>,
+    m_empty: bool,
+    /// Per job: all loops of `M_t ∩ zone`, and the largest counter-clockwise one with the
+    /// count of counter-clockwise loops and their total area.
+    zones: Vec<ZoneLoops>,
+    /// Whether some lower zone, some upper zone, meets `M_t` in several pieces.
+    split: [bool; 2],
+    /// Area of the pieces that would be dropped (all but the largest of each zone), mm².
+    discarded: f64,
+    /// Zones that miss `M_t` altogether.
+    empty: usize,
+}
+
+/// The zone loops at `t`. With `prune = Some((side, bound))`, `None` when the zones of
+/// `side` (lower when true) alone are split and discard at least `bound` mm².
+fn attempt(
+    grid: &Grid,
+    near_lower: &NearestContours,
+    near_upper: &NearestContours,
+    jobs: &[Job],
+    t: f64,
+    prune: Option<(bool, f64)>,
+) -> Option<Attempt> {
+    let (wl, wu) = (1.0 - t, t);
+    let neg_phi: Vec<f32> = near_lower
+        .min1
+        .par_iter()
+        .zip(&near_upper.min1)
+        .map(|(&a, &b)| (-(wl * a as f64 + wu * b as f64)) as f32)
+        .collect();
+    let m_empty = !neg_phi.iter().any(|&v| v >= 0.0);
+    // Zone i is inside only where M_t is and i is the nearest contour of its section: each
+    // zone's loops are extracted within the window of those samples, not the whole raster.
+    let in_m = |k: usize| neg_phi[k] >= 0.0;
+    let (win_lower, win_upper) = rayon::join(
+        || {
+            let count = jobs.iter().filter(|j| j.0).count();
+            Window::per_label(grid, count, &in_m, &|k| near_lower.label1[k])
+        },
+        || {
+            let count = jobs.iter().filter(|j| !j.0).count();
+            Window::per_label(grid, count, &in_m, &|k| near_upper.label1[k])
+        },
+    );
+    let extract = |ids: &[usize]| -> Vec<ZoneLoops> {
+        ids.par_iter()
+            .map(|&j| {
+                let (is_lower, i) = jobs[j];
+                let window = if is_lower { win_lower[i] } else { win_upper[i] };
+                let Some(window) = window.filter(|_| !m_empty) else {
+                    return (Vec::new(), None, 0, 0.0);
+                };
+                let near = if is_lower { near_lower } else { near_upper };
+                // Rounded as the f32 field is, so every step sees what marching squares saw.
+                let g = |k: usize| neg_phi[k] as f64;
+                let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
+                let loops = zone_loops(grid, &g, &n, Some(window));
+                let (best, count, total) = largest_loop(&loops, true);
+                (loops, best, count, total)
+            })
+            .collect()
+    };
+    // The side being mended first: when it alone already discards as much as the best plane
+    // so far, this plane cannot be chosen and the other side is not worth extracting.
+    let (first, rest): (Vec<usize>, Vec<usize>) =
+        (0..jobs.len()).partition(|&j| prune.is_none_or(|(side, _)| jobs[j].0 == side));
+    let mut zones: Vec<Option<ZoneLoops>> = (0..jobs.len()).map(|_| None).collect();
+    for (&j, z) in first.iter().zip(extract(&first)) {
+        zones[j] = Some(z);
+    }
+    if let Some((_, bound)) = prune {
+        let (mut split, mut discarded) = (false, 0.0);
+        for (loops, best, count, total) in zones.iter().flatten() {
+            if let (Some(b), true) = (best, *count > 1) {
+                split = true;
+                discarded += total - signed_area(&loops[*b]);
+            }
+        }
+        if split && discarded >= bound {
+            return None;
+        }
+    }
+    for (&j, z) in rest.iter().zip(extract(&rest)) {
+        zones[j] = Some(z);
+    }
+    let zones: Vec<ZoneLoops> = zones.into_iter().flatten().collect();
+    let mut split = [false; 2];
+    let (mut discarded, mut empty) = (0.0, 0);
+    for (&(is_lower, _), (loops, best, count, total)) in jobs.iter().zip(&zones) {
+        match best {
+            Some(b) if *count > 1 => {
+                split[usize::from(!is_lower)] = true;
+                discarded += total - signed_area(&loops[*b]);
+            }
+            Some(_) => {}
+            None => empty += 1,
+        }
+    }
+    Some(Attempt {
+        t,
+        neg_phi,
+        m_empty,
+        zones,
+        split,
+        discarded,
+        empty,
+    })
+}
+
+/// The construction, at `t` when given, else at the `t` the rule of the module docs picks.
+fn intermediate_contours_with(
+    lower: &[&[Point]],
+    upper: &[&[Point]],
+    cell_mm: f64,
+    fixed_t: Option<f64>,
 ) -> Result<IntermediateContours, GeometryError> {
     if lower.is_empty() || upper.is_empty() {
         return Err(GeometryError::Empty(format!(
@@ -188,52 +394,110 @@ pub fn intermediate_contours(
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
     let cell = grid.cell_mm;
 
-    let (near_lower, near_upper) = rayon::join(
-        || nearest_contours(&grid, lower, true),
-        || nearest_contours(&grid, upper, true),
+    // The distance fields do not depend on t: every attempt below reuses them. They are
+    // exact only where the output can depend on their values (see `exact_band`).
+    let (seed_lower, seed_upper) = rayon::join(
+        || SeedField::new(&grid, lower, true),
+        || SeedField::new(&grid, upper, true),
     );
-    // −φ_M: non-negative on the mid-section M. Since the contours of a section are disjoint,
-    // the signed distance to their union is the smallest of their signed distances.
-    let neg_phi: Vec<f32> = near_lower
-        .min1
-        .par_iter()
-        .zip(&near_upper.min1)
-        .map(|(&a, &b)| (-0.5 * (a as f64 + b as f64)) as f32)
+    let exact = exact_band(&grid, &seed_lower, &seed_upper);
+    let (near_lower, near_upper) = rayon::join(
+        || nearest_contours_within(&grid, seed_lower, Some(&exact)),
+        || nearest_contours_within(&grid, seed_upper, Some(&exact)),
+    );
+    let jobs: Vec<Job> = (0..lower.len())
+        .map(|i| (true, i))
+        .chain((0..upper.len()).map(|i| (false, i)))
         .collect();
-    let m_empty = !neg_phi.iter().any(|&v| v >= 0.0);
+
+    // Choose the plane. A lower zone that meets M_t in several pieces means that contour
+    // splits between the sections below the plane: moving the plane towards A1 (t → 0)
+    // brings M_t towards A1, where the zone meets it in one piece. Likewise upwards.
+    // Without pruning an attempt always comes back.
+    let Some(mut chosen) = attempt(
+        &grid,
+        &near_lower,
+        &near_upper,
+        &jobs,
+        fixed_t.unwrap_or(0.5),
+        None,
+    ) else {
+        return Err(GeometryError::Degenerate(
+            "internal: the plane at t = 0.5 was pruned".to_string(),
+        ));
+    };
+    if fixed_t.is_none() && chosen.split[0] != chosen.split[1] {
+        let first = (chosen.split, chosen.discarded);
+        let towards_lower = chosen.split[0];
+        let empty_at_half = chosen.empty;
+        let mut tried = vec![0.5];
+        for &s in &T_TOWARDS_LOWER {
+            let t = if towards_lower { s } else { 1.0 - s };
+            tried.push(t);
+            let prune = Some((towards_lower, chosen.discarded));
+            let Some(a) = attempt(&grid, &near_lower, &near_upper, &jobs, t, prune) else {
+                continue;
+            };
+            // A plane that loses a zone altogether is no improvement.
+            if a.empty > empty_at_half {
+                continue;
+            }
+            let fixed = a.split == [false, false];
+            if fixed || a.discarded < chosen.discarded {
+                chosen = a;
+            }
+            if fixed {
+                break;
+            }
+        }
+        if chosen.split != [false, false] {
+            warnings.push(format!(
+                "a {} zone meets the intermediate plane in several pieces at every t tried \
+                 ({tried:?}); kept t = {} (discarded {:.4} mm², {:.4} mm² at t = 0.5; split \
+                 lower/upper at t = 0.5: {:?})",
+                if towards_lower { "lower" } else { "upper" },
+                chosen.t,
+                chosen.discarded,
+                first.1,
+                first.0
+            ));
+        }
+    } else if fixed_t.is_none() && chosen.split == [true, true] {
+        warnings.push(
+            "zones of both sections meet the mid-plane in several pieces: no plane between \
+             the sections mends both; kept t = 0.5"
+                .to_string(),
+        );
+    }
+    let t = chosen.t;
+    let neg_phi = &chosen.neg_phi;
+    let m_empty = chosen.m_empty;
     if m_empty {
         warnings.push(
-            "the two sections do not overlap on the raster: the mid-section is empty and every \
-             contour closes at its innermost point"
+            "the two sections do not overlap on the raster: the intermediate section is empty \
+             and every contour closes at its innermost point"
                 .to_string(),
         );
     }
 
-    // Each contour's zone within M, extracted as loops.
-    let jobs: Vec<(&str, usize, &NearestContours)> = (0..lower.len())
-        .map(|i| ("lower", i, &near_lower))
-        .chain((0..upper.len()).map(|i| ("upper", i, &near_upper)))
-        .collect();
+    // Each contour's zone within M_t, as one loop.
     let extracted: Vec<(Option<Vec<Point>>, Vec<String>)> = jobs
         .par_iter()
-        .map(|&(name, i, near)| {
+        .zip(&chosen.zones)
+        .map(|(&(is_lower, i), (loops, best, count, total))| {
             let mut notes = Vec::new();
-            if m_empty {
-                return (None, notes);
-            }
-            // Rounded as the f32 field is, so every step sees what marching squares saw.
-            let g = |k: usize| neg_phi[k] as f64;
-            let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
-            let loops = zone_loops(&grid, &g, &n);
-            let (best, count, total) = largest_loop(&loops, true);
-            let Some(b) = best else {
+            let Some(b) = *best else {
                 return (None, notes);
             };
+            let near = if is_lower { &near_lower } else { &near_upper };
+            let name = if is_lower { "lower" } else { "upper" };
+            let g = |k: usize| neg_phi[k] as f64;
+            let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
             let chosen = insert_junctions(&loops[b], &grid, &g, &n);
-            if count > 1 {
+            if *count > 1 {
                 notes.push(format!(
-                    "{name} contour {i}: its zone meets the mid-section in {count} pieces; kept \
-                     the largest ({:.4} of {:.4} mm²)",
+                    "{name} contour {i}: its zone meets the intermediate section (t = {t}) in \
+                     {count} pieces; kept the largest ({:.4} of {:.4} mm²)",
                     signed_area(&chosen),
                     total
                 ));
@@ -255,13 +519,18 @@ pub fn intermediate_contours(
     let loops: Vec<Vec<Point>> = extracted.iter().filter_map(|(lp, _)| lp.clone()).collect();
     let mut compressed = simplify_shared(&loops, SIMPLIFY_TOL_CELLS * cell).into_iter();
 
-    let mut out = IntermediateContours::default();
-    for ((name, i, _), (lp, notes)) in jobs.iter().zip(extracted) {
+    let mut out = IntermediateContours {
+        t,
+        lower: Vec::new(),
+        upper: Vec::new(),
+        warnings: Vec::new(),
+    };
+    for (&(is_lower, i), (lp, notes)) in jobs.iter().zip(extracted) {
         warnings.extend(notes);
-        let contour = if *name == "lower" {
-            lower[*i]
+        let (name, contour) = if is_lower {
+            ("lower", lower[i])
         } else {
-            upper[*i]
+            ("upper", upper[i])
         };
         let result = match lp {
             Some(_) => match compressed.next() {
@@ -270,7 +539,7 @@ pub fn intermediate_contours(
             },
             None if m_empty => Intermediate::Point(innermost_point(&grid, contour)),
             None => {
-                // The sample of M nearest to the contour.
+                // The sample of M_t nearest to the contour.
                 let sd = signed_distance(&grid, &[contour]);
                 let best = (0..grid.len()).filter(|&k| neg_phi[k] >= 0.0).fold(
                     None,
@@ -284,13 +553,13 @@ pub fn intermediate_contours(
                     None => innermost_point(&grid, contour),
                 };
                 warnings.push(format!(
-                    "{name} contour {i}: its zone misses the mid-section; degenerate \
-                     intermediate contour at the nearest point of the mid-section {p:?}"
+                    "{name} contour {i}: its zone misses the intermediate section; degenerate \
+                     intermediate contour at the nearest point of that section {p:?}"
                 ));
                 Intermediate::Point(p)
             }
         };
-        if *name == "lower" {
+        if is_lower {
             out.lower.push(result);
         } else {
             out.upper.push(result);

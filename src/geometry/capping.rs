@@ -24,8 +24,10 @@
 //! compressed identically (within a quarter cell); deterministic; errors, not panics, on bad
 //! input.
 
-use super::branching::{raster_for, Intermediate, SIMPLIFY_TOL_CELLS};
-use super::distance_map::{inside_mask, nearest_contours, validate_polygons, Grid};
+use super::branching::{raster_for, Intermediate, EXACT_MARGIN_CELLS, SIMPLIFY_TOL_CELLS};
+use super::distance_map::{
+    inside_mask, mark_label_band, nearest_contours_within, validate_polygons, Grid, SeedField,
+};
 use super::polygon::{signed_area, Point};
 use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops};
 use super::GeometryError;
@@ -45,6 +47,23 @@ fn innermost(grid: &Grid, polys: &[&[Point]], neg_sdm: &[f32]) -> Point {
     refine_innermost(polys, start, grid.cell_mm)
 }
 
+/// The samples where the distance must be exact: near the material's deepest samples (the
+/// seed distances exceed the true ones by less than 2.5 cells, so no sample farther below
+/// the deepest seed distance than the margin can be the deepest), near the boundary (the
+/// zero set of the depth), and around the zones' boundaries (the ridge).
+fn exact_band(grid: &Grid, seed: &SeedField, material: &[bool]) -> Vec<bool> {
+    let m = EXACT_MARGIN_CELLS * grid.cell_mm;
+    let top = (0..grid.len())
+        .filter(|&k| material[k])
+        .map(|k| seed.dist[k])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut mask: Vec<bool> = (0..grid.len())
+        .map(|k| seed.dist[k] < m || (material[k] && seed.dist[k] >= top - m))
+        .collect();
+    mark_label_band(grid, &[seed], EXACT_MARGIN_CELLS as usize, &mut mask);
+    mask
+}
+
 /// Caps of the region bounded by `outer` minus `holes`.
 pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, GeometryError> {
     validate_polygons(&[outer], "outer contour")?;
@@ -55,9 +74,12 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
         .collect();
     let grid = raster_for(&all, cell_mm, &mut warnings)?;
 
-    // Zones among the boundary contours, by unsigned distance within the material.
-    let near = nearest_contours(&grid, &all, false);
+    // Zones among the boundary contours, by unsigned distance within the material. The
+    // distances are exact only where they matter (see `exact_band`).
     let material = inside_mask(&grid, &all);
+    let seed = SeedField::new(&grid, &all, false);
+    let exact = exact_band(&grid, &seed, &material);
+    let near = nearest_contours_within(&grid, seed, Some(&exact));
     // Depth in the material: positive inside, negative outside (−signed distance).
     let neg_sdm: Vec<f32> = near
         .min1
@@ -84,7 +106,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let zone_loops_of = |label: u32| {
         let g = |k: usize| neg_sdm[k] as f64;
         let n = |k: usize| neg_psi(&near, label, k) as f32 as f64;
-        zone_loops(&grid, &g, &n)
+        zone_loops(&grid, &g, &n, None)
     };
     let mut chosen: Vec<Option<Vec<Point>>> = Vec::with_capacity(all.len());
     for label in 0..all.len() {

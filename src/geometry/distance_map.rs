@@ -21,6 +21,14 @@
 //! (wiggly but simple) polygons a few isolated samples keep a foot point on a neighbouring
 //! wiggle, up to 0.06 cell (see the tests).
 //!
+//! The walk and the sweeps are most of the cost, and a caller rarely needs exact values
+//! everywhere: [`SeedField`] stops after the transform (every sample gets the exact distance
+//! to its seed's segment: never below the true distance, above it by less than 2.5 cells),
+//! and [`nearest_contours_within`] walks and sweeps only the samples of a mask the caller
+//! builds from it (branching: where `∂M_t` can pass and around zone boundaries; capping:
+//! near the boundary, the ridge and the deepest samples). Outside the mask values are the
+//! seed distances, with exact signs.
+//!
 //! Invariants: deterministic (rayon only splits independent rows/columns), no panics on any
 //! finite input; distances are never below the exact distance by more than rounding, since
 //! each is the exact distance to some boundary segment.
@@ -364,7 +372,15 @@ fn neighbours(r: usize, c: usize, w: usize, h: usize) -> impl Iterator<Item = (u
 /// keeps any that is nearer. This moves the right foot point into the samples where the
 /// envelope's choice and the walk along the contour stopped short: across bisectors between
 /// distant parts of the boundary, and out of the local minima of wiggly contours.
-fn sweep(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], forward: bool) {
+fn sweep(
+    grid: &Grid,
+    segs: &Segments,
+    dist: &mut [f64],
+    seg: &mut [u32],
+    forward: bool,
+    exact: Option<&[bool]>,
+) {
+    let wanted = |k: usize| exact.is_none_or(|m| m[k]);
     let (w, h) = (grid.width as i64, grid.height as i64);
     let first: [(i64, i64); 4] = if forward {
         [(0, -1), (-1, -1), (-1, 0), (-1, 1)]
@@ -390,6 +406,9 @@ fn sweep(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], forwar
         for cc in 0..w {
             let c = if forward { cc } else { w - 1 - cc };
             let k = (r * w + c) as usize;
+            if !wanted(k) {
+                continue;
+            }
             let x = grid.point(r as usize, c as usize);
             for (or, oc) in first {
                 let (nr, nc) = (r + or, c + oc);
@@ -403,7 +422,7 @@ fn sweep(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], forwar
         for cc in 0..w {
             let c = if forward { w - 1 - cc } else { cc };
             let nc = c + oc;
-            if nc >= 0 && nc < w {
+            if nc >= 0 && nc < w && wanted((r * w + c) as usize) {
                 let x = grid.point(r as usize, c as usize);
                 try_from((r * w + c) as usize, (r * w + nc) as usize, x);
             }
@@ -465,6 +484,16 @@ pub fn unsigned_distance(grid: &Grid, polys: &[&[Point]]) -> Vec<f32> {
 /// Exact distance (mm) from every sample to the set's boundary, and the global index of the
 /// segment realising it (`NO_SITE` when the set has no segment).
 fn distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
+    let (mut dist, mut seg) = seed_distance_and_segment(grid, segs);
+    refine(grid, segs, &mut dist, &mut seg, None);
+    (dist, seg)
+}
+
+/// The first, cheap stage of [`distance_and_segment`]: every sample gets the exact distance to
+/// the segment of the seed the feature transform chose for it. That is the distance to some
+/// segment, so never below the true distance, and above it by about a cell at most (the seed
+/// lies within [`SEED_BAND_CELLS`] of a foot point near the true one).
+fn seed_distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
     let (w, h, cell) = (grid.width, grid.height, grid.cell_mm);
     // Seeds: exact squared distance in cell² units, and the segment that realises it.
     let mut f = vec![f64::INFINITY; w * h];
@@ -513,14 +542,34 @@ fn distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32>) {
                 if site == NO_SITE || seg_of[site as usize] == NO_SITE {
                     continue;
                 }
-                let (d, s) = segs.descend(grid.point(r, c), seg_of[site as usize] as usize);
+                let s = seg_of[site as usize];
+                drow[c] = segs.dist_sq(grid.point(r, c), s as usize).sqrt();
+                srow[c] = s;
+            }
+        });
+    (dist, seg)
+}
+
+/// The second stage of [`distance_and_segment`], at the samples of `exact` (all when `None`):
+/// walk from the seed's segment to the true foot point, then sweep better segments in from
+/// the neighbours. Samples outside `exact` keep their seed distance.
+fn refine(grid: &Grid, segs: &Segments, dist: &mut [f64], seg: &mut [u32], exact: Option<&[bool]>) {
+    let w = grid.width;
+    dist.par_chunks_mut(w)
+        .zip(seg.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(r, (drow, srow))| {
+            for c in 0..w {
+                if srow[c] == NO_SITE || exact.is_some_and(|m| !m[r * w + c]) {
+                    continue;
+                }
+                let (d, s) = segs.descend(grid.point(r, c), srow[c] as usize);
                 drow[c] = d;
                 srow[c] = s as u32;
             }
         });
-    sweep(grid, segs, &mut dist, &mut seg, true);
-    sweep(grid, segs, &mut dist, &mut seg, false);
-    (dist, seg)
+    sweep(grid, segs, dist, seg, true, exact);
+    sweep(grid, segs, dist, seg, false, exact);
 }
 
 /// For every sample, the distances to the nearest, second and third nearest contours of a set
@@ -545,20 +594,130 @@ pub struct NearestContours {
 /// The [`NearestContours`] of the polygon set on the grid (labels are indices into `polys`,
 /// [`NO_SITE`] where none).
 pub fn nearest_contours(grid: &Grid, polys: &[&[Point]], signed: bool) -> NearestContours {
+    nearest_contours_within(grid, SeedField::new(grid, polys, signed), None)
+}
+
+/// The cheap first stage of a distance map (see [`SeedField`]), from which a caller decides
+/// where it needs exact values before paying for them.
+pub(crate) struct SeedField<'a> {
+    polys: &'a [&'a [Point]],
+    segs: Segments,
+    /// Distance to the seed's segment (mm): exact for some segment, so never below the true
+    /// distance, and above it by about a cell at most.
+    pub dist: Vec<f64>,
+    seg: Vec<u32>,
+    /// Inside mask (even–odd), empty when unsigned.
+    pub inside: Vec<bool>,
+    signed: bool,
+}
+
+impl<'a> SeedField<'a> {
+    pub fn new(grid: &Grid, polys: &'a [&'a [Point]], signed: bool) -> Self {
+        let segs = Segments::new(polys);
+        let (dist, seg) = seed_distance_and_segment(grid, &segs);
+        let inside = if signed {
+            inside_mask(grid, polys)
+        } else {
+            Vec::new()
+        };
+        SeedField {
+            polys,
+            segs,
+            dist,
+            seg,
+            inside,
+            signed,
+        }
+    }
+
+    /// Signed seed distance at sample `k` (negative inside when signed).
+    pub fn signed(&self, k: usize) -> f64 {
+        if self.signed && self.inside[k] {
+            -self.dist[k]
+        } else {
+            self.dist[k]
+        }
+    }
+
+    /// The polygon of the seed's segment at sample `k` ([`NO_SITE`] when none).
+    pub fn label(&self, k: usize) -> u32 {
+        let s = self.seg[k];
+        if s == NO_SITE {
+            NO_SITE
+        } else {
+            self.segs.poly[s as usize]
+        }
+    }
+}
+
+/// Samples within `cells` (Chebyshev) of a sample whose 3 × 3 neighbourhood holds another
+/// seed label than its own, in any of `fields`: where zones meet, give or take the seeds'
+/// error. Added to `mask`.
+pub(crate) fn mark_label_band(grid: &Grid, fields: &[&SeedField], cells: usize, mask: &mut [bool]) {
     let (w, h) = (grid.width, grid.height);
-    let segs = Segments::new(polys);
-    let (dist, seg) = distance_and_segment(grid, &segs);
+    let mut edge = vec![false; w * h];
+    for f in fields {
+        if f.polys.len() < 2 {
+            continue;
+        }
+        let label: Vec<u32> = (0..w * h).map(|k| f.label(k)).collect();
+        edge.par_chunks_mut(w).enumerate().for_each(|(r, row)| {
+            for (c, e) in row.iter_mut().enumerate() {
+                *e |= !uniform(&label, r, c, w, h);
+            }
+        });
+    }
+    // Dilate by a square of side 2·cells + 1: along rows, then along columns.
+    let mut rows = vec![false; w * h];
+    rows.par_chunks_mut(w).enumerate().for_each(|(r, out)| {
+        let src = &edge[r * w..(r + 1) * w];
+        // Set samples, in order; each output sample looks at the first one not left of its
+        // window.
+        let on: Vec<usize> = (0..w).filter(|&c| src[c]).collect();
+        let mut j = 0;
+        for (c, o) in out.iter_mut().enumerate() {
+            while j < on.len() && on[j] + cells < c {
+                j += 1;
+            }
+            *o = j < on.len() && on[j] <= c + cells;
+        }
+    });
+    mask.par_chunks_mut(w).enumerate().for_each(|(r, out)| {
+        let (r0, r1) = (r.saturating_sub(cells), (r + cells).min(h - 1));
+        for (c, o) in out.iter_mut().enumerate() {
+            if !*o {
+                *o = (r0..=r1).any(|rr| rows[rr * w + c]);
+            }
+        }
+    });
+}
+
+/// [`nearest_contours`] from a seed field, exact at the samples of `exact` (all when `None`)
+/// and at their neighbours' zone boundaries. Elsewhere `min1` is the seed distance, above the
+/// true one by about a cell at most, and the label the seed's: a caller passes a mask that
+/// covers, with a margin larger than that, every sample where it needs values (the zero
+/// sets it extracts and the zones' boundaries).
+pub(crate) fn nearest_contours_within(
+    grid: &Grid,
+    field: SeedField,
+    exact: Option<&[bool]>,
+) -> NearestContours {
+    let (w, h) = (grid.width, grid.height);
+    let SeedField {
+        polys,
+        segs,
+        mut dist,
+        mut seg,
+        inside,
+        signed,
+    } = field;
+    refine(grid, &segs, &mut dist, &mut seg, exact);
     let label_of = |s: u32| {
         if s == NO_SITE {
             NO_SITE
         } else {
             segs.poly[s as usize]
         }
-    };
-    let inside = if signed {
-        inside_mask(grid, polys)
-    } else {
-        Vec::new()
     };
     if polys.len() == 1 {
         // One contour: it is the nearest everywhere, and there is no second.

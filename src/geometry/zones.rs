@@ -50,6 +50,56 @@ pub(crate) fn neg_psi(near: &NearestContours, i: u32, k: usize) -> f64 {
     }
 }
 
+/// A rectangle of samples, rows `r0..=r1` and columns `c0..=c1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Window {
+    pub r0: usize,
+    pub r1: usize,
+    pub c0: usize,
+    pub c1: usize,
+}
+
+impl Window {
+    /// The bounding window of the samples `k` with `inside(k)`, per label `label(k)` (labels
+    /// `0..count`, others ignored), grown by two samples and clamped to the raster; `None`
+    /// for a label with no sample. One pass over the raster for all labels.
+    pub(crate) fn per_label(
+        grid: &Grid,
+        count: usize,
+        inside: &(dyn Fn(usize) -> bool + Sync),
+        label: &(dyn Fn(usize) -> u32 + Sync),
+    ) -> Vec<Option<Window>> {
+        let (w, h) = (grid.width, grid.height);
+        let mut out: Vec<Option<Window>> = vec![None; count];
+        for r in 0..h {
+            for c in 0..w {
+                let k = r * w + c;
+                let l = label(k) as usize;
+                if l >= count || !inside(k) {
+                    continue;
+                }
+                let b = out[l].get_or_insert(Window {
+                    r0: r,
+                    r1: r,
+                    c0: c,
+                    c1: c,
+                });
+                b.r0 = b.r0.min(r);
+                b.r1 = b.r1.max(r);
+                b.c0 = b.c0.min(c);
+                b.c1 = b.c1.max(c);
+            }
+        }
+        for b in out.iter_mut().flatten() {
+            b.r0 = b.r0.saturating_sub(2);
+            b.c0 = b.c0.saturating_sub(2);
+            b.r1 = (b.r1 + 2).min(h - 1);
+            b.c1 = (b.c1 + 2).min(w - 1);
+        }
+        out
+    }
+}
+
 /// Same clamp as marching squares: crossings stay a hair away from the samples.
 const T_MARGIN: f64 = 1e-4;
 
@@ -64,16 +114,40 @@ const T_MARGIN: f64 = 1e-4;
 /// `n` is negated gets the same point bit for bit, and a loop of the other section (same `g`)
 /// gets the same point on the mid-section boundary. The topology is marching squares' own.
 /// `g` and `n` must return the values as rounded into the `f32` field.
+///
+/// `window` (rows `r0..=r1`, columns `c0..=c1`), when given, must hold every sample where
+/// `min(g, n) ≥ 0` with two samples to spare inside the raster (or reach the raster's edge):
+/// marching squares then runs on the window alone and gives the same loops, the same points
+/// bit for bit (they are moved to raster coordinates, integers exactly, before the crossings
+/// are placed), at the cost of the window instead of the whole raster.
 pub(crate) fn zone_loops(
     grid: &Grid,
     g: &(dyn Fn(usize) -> f64 + Sync),
     n: &(dyn Fn(usize) -> f64 + Sync),
+    window: Option<Window>,
 ) -> Vec<Vec<Point>> {
     let (w, h) = (grid.width, grid.height);
-    let field: Vec<f32> = (0..grid.len()).map(|k| g(k).min(n(k)) as f32).collect();
-    let mut loops = iso_loops(&field, w, h, 0.0);
+    let win = window.unwrap_or(Window {
+        r0: 0,
+        r1: h.saturating_sub(1),
+        c0: 0,
+        c1: w.saturating_sub(1),
+    });
+    if grid.is_empty() || win.r1 < win.r0 || win.c1 < win.c0 || win.r1 >= h || win.c1 >= w {
+        return Vec::new();
+    }
+    let (ww, wh) = (win.c1 - win.c0 + 1, win.r1 - win.r0 + 1);
+    let mut field: Vec<f32> = Vec::with_capacity(ww * wh);
+    for r in win.r0..=win.r1 {
+        for k in r * w + win.c0..=r * w + win.c1 {
+            field.push(g(k).min(n(k)) as f32);
+        }
+    }
+    let mut loops = iso_loops(&field, ww, wh, 0.0);
+    let offset = [win.c0 as f64, win.r0 as f64];
     for lp in loops.iter_mut() {
         for p in lp.iter_mut() {
+            *p = [p[0] + offset[0], p[1] + offset[1]];
             // The edge the crossing lies on: one pixel coordinate is an exact integer.
             let (a, b, horizontal) = if p[1].fract() == 0.0 && p[0].fract() != 0.0 {
                 let (r, c) = (p[1], p[0].floor());

@@ -25,10 +25,12 @@ pub const STAGE: &str = "branching";
 /// The curves a problem contributes, in the lower section's frame (2-D), before lifting.
 pub enum Solved {
     Link,
-    /// Intermediate contours: one per lower contour, one per upper contour.
+    /// Intermediate contours: one per lower contour, one per upper contour, on the plane at
+    /// the fraction `t` of the way from the lower section to the upper one.
     Branch {
         lower: Vec<Intermediate>,
         upper: Vec<Intermediate>,
+        t: f64,
     },
     /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
     Cap {
@@ -125,6 +127,7 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             Ok(Solved::Branch {
                 lower: r.lower,
                 upper: r.upper,
+                t: r.t,
             })
         }
         Problem::Cap { side, outer, holes } => {
@@ -214,8 +217,12 @@ impl Assembler {
                     Solved::Branch {
                         lower: il,
                         upper: iu,
+                        t: at,
                     },
                 ) => {
+                    // The kernel may move the plane off the middle (a contour splitting
+                    // near one section): both sides' regions end on it.
+                    let dz = at * t.spacing;
                     let (lo, up) = both(t)?;
                     let origin = CurveOrigin::Intermediate {
                         below: lo.index,
@@ -224,7 +231,7 @@ impl Assembler {
                     for (&k, c) in lower.iter().zip(&il) {
                         let mut r = self.take(k, lo)?;
                         r.curves.push(RegionCurve {
-                            points: lift_curve(&lo.frame, c, half, *hole),
+                            points: lift_curve(&lo.frame, c, dz, *hole),
                             origin,
                         });
                         self.close(r, &mut closed);
@@ -235,7 +242,7 @@ impl Assembler {
                             hole: *hole,
                             curves: vec![
                                 RegionCurve {
-                                    points: lift_curve(&lo.frame, c, half, *hole),
+                                    points: lift_curve(&lo.frame, c, dz, *hole),
                                     origin,
                                 },
                                 contour_curve(up, k),
