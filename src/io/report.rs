@@ -67,7 +67,10 @@ pub struct SurfaceReport {
     /// Lowest and highest slice index the surface spans.
     pub slices: [usize; 2],
     pub input_points: usize,
-    /// True distance of every input contour point to the surface.
+    /// Points whose true distance to the surface was measured: the input contour points and
+    /// the points fitted along their edges (at most twice the tolerance apart).
+    pub certified_points: usize,
+    /// Largest true distance of the certified points to the surface.
     pub max_error_mm: f64,
     pub mean_error_mm: f64,
     pub rms_error_mm: f64,
