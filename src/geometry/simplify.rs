@@ -54,9 +54,9 @@ fn simplify_once(pts: &[Point], tol: f64) -> Vec<Point> {
     out
 }
 
-/// Mark the points of the chain `lo..=hi` (index `n` means point 0 again) that must stay.
-/// Iterative, so long chains cannot overflow the stack.
-fn mark(pts: &[Point], lo: usize, hi: usize, tol: f64, keep: &mut [bool]) {
+/// Mark the points of the chain `lo..=hi` (index `n` means point 0 again) that must stay
+/// (Douglas–Peucker on segments). Iterative, so long chains cannot overflow the stack.
+pub(crate) fn mark(pts: &[Point], lo: usize, hi: usize, tol: f64, keep: &mut [bool]) {
     let n = pts.len();
     let mut stack = vec![(lo, hi)];
     while let Some((a, b)) = stack.pop() {

@@ -15,8 +15,8 @@ use std::collections::HashMap;
 
 use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
-use super::polygon::{is_simple, point_segment_distance, signed_area, Point};
-use super::simplify::simplify_closed;
+use super::polygon::{is_simple, signed_area, Point};
+use super::simplify::{mark, simplify_closed};
 
 /// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
 /// level as inside, so an exact tie between two zones must be inside exactly one of them (and
@@ -246,24 +246,7 @@ fn simplify_chain(chain: &[Point], tol: f64) -> Vec<Point> {
     let mut keep = vec![false; n];
     keep[0] = true;
     keep[n - 1] = true;
-    let mut stack = vec![(0usize, n - 1)];
-    while let Some((a, b)) = stack.pop() {
-        if b <= a + 1 {
-            continue;
-        }
-        let mut worst = (0.0, a);
-        for (i, &p) in pts.iter().enumerate().take(b).skip(a + 1) {
-            let d = point_segment_distance(p, pts[a], pts[b]);
-            if d > worst.0 {
-                worst = (d, i);
-            }
-        }
-        if worst.0 > tol {
-            keep[worst.1] = true;
-            stack.push((a, worst.1));
-            stack.push((worst.1, b));
-        }
-    }
+    mark(&pts, 0, n - 1, tol, &mut keep);
     let mut out: Vec<Point> = (0..n).filter(|&i| keep[i]).map(|i| pts[i]).collect();
     if reversed {
         out.reverse();
