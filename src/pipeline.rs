@@ -94,14 +94,22 @@ pub fn run_contours(
 
 impl ContoursSummary {
     fn count(&mut self, compiled: &CompiledSection) {
-        let s = &compiled.section;
+        self.count_section(
+            &compiled.section,
+            compiled.points_raw,
+            compiled.dropped_small,
+        );
+    }
+
+    /// A section whose contours had `points_raw` points before compression.
+    fn count_section(&mut self, s: &Section, points_raw: usize, dropped_small: usize) {
         self.sections += 1;
         self.empty_sections += usize::from(s.contours.is_empty());
         self.contours += s.contours.len();
         self.holes += s.contours.iter().filter(|c| c.hole).count();
-        self.points_raw += compiled.points_raw;
+        self.points_raw += points_raw;
         self.points_compressed += s.contours.iter().map(|c| c.points.len()).sum::<usize>();
-        self.dropped_small += compiled.dropped_small;
+        self.dropped_small += dropped_small;
     }
 }
 
@@ -195,13 +203,9 @@ pub fn run_surfaces(
                 RunInput::Sections(iter) => {
                     let sections = iter.map(|s| {
                         let s = s?;
-                        counts.sections += 1;
-                        counts.empty_sections += usize::from(s.contours.is_empty());
-                        counts.contours += s.contours.len();
-                        counts.holes += s.contours.iter().filter(|c| c.hole).count();
-                        let pts = s.contours.iter().map(|c| c.points.len()).sum::<usize>();
-                        counts.points_raw += pts;
-                        counts.points_compressed += pts;
+                        // Contours from elsewhere arrive compressed (or not): raw = as given.
+                        let given = s.contours.iter().map(|c| c.points.len()).sum();
+                        counts.count_section(&s, given, 0);
                         on_section(&s);
                         Ok(s)
                     });
