@@ -11,6 +11,22 @@ fn bskin(args: &[&str]) -> Output {
         .expect("run bskin")
 }
 
+/// `bskin ARGS` with `input` on its standard input.
+fn bskin_with_stdin(args: &[&str], input: &[u8]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run bskin");
+    {
+        use std::io::Write;
+        child.stdin.take().unwrap().write_all(input).unwrap();
+    }
+    child.wait_with_output().unwrap()
+}
+
 fn testdata() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/tube-split")
 }
@@ -163,17 +179,7 @@ fn contours_piped_into_run_give_the_same_surfaces() {
     let c = bskin(&["contours", testdata().to_str().unwrap(), "-q"]);
     assert!(c.status.success());
     let out = tmp.path().join("piped");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
-        .args(["run", "-", "-o", out.to_str().unwrap(), "-q"])
-        .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    {
-        use std::io::Write;
-        child.stdin.take().unwrap().write_all(&c.stdout).unwrap();
-    }
-    let o = child.wait_with_output().unwrap();
+    let o = bskin_with_stdin(&["run", "-", "-o", out.to_str().unwrap(), "-q"], &c.stdout);
     assert!(o.status.success(), "{}", stderr(&o));
     let piped: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
@@ -201,22 +207,10 @@ fn truncated_contour_stream_is_an_error_naming_the_line() {
     let cut = &text[..text.len() / 2];
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bskin"))
-        .args(["run", "-", "-o", out.to_str().unwrap(), "-q"])
-        .stdin(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    {
-        use std::io::Write;
-        child
-            .stdin
-            .take()
-            .unwrap()
-            .write_all(cut.as_bytes())
-            .unwrap();
-    }
-    let o = child.wait_with_output().unwrap();
+    let o = bskin_with_stdin(
+        &["run", "-", "-o", out.to_str().unwrap(), "-q"],
+        cut.as_bytes(),
+    );
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("NDJSON line"), "{}", stderr(&o));
     assert!(!out.join("report.json").exists() && !out.join("mesh.stl").exists());

@@ -68,27 +68,12 @@ pub fn ders(u: &[f64], k: usize, t: f64) -> [[f64; 4]; 3] {
 
 /// Values only of the four non-zero cubic basis functions at `t` in span `k`.
 pub fn values(u: &[f64], k: usize, t: f64) -> [f64; 4] {
-    let mut n = [0.0f64; 4];
-    let mut left = [0.0f64; 4];
-    let mut right = [0.0f64; 4];
-    n[0] = 1.0;
-    for j in 1..=3 {
-        left[j] = t - u[k + 1 - j];
-        right[j] = u[k + j] - t;
-        let mut saved = 0.0;
-        for r in 0..j {
-            let temp = n[r] / (right[r + 1] + left[j - r]);
-            n[r] = saved + right[r + 1] * temp;
-            saved = left[j - r] * temp;
-        }
-        n[j] = saved;
-    }
-    n
+    cubic_and_quadratic(u, k, t).0
 }
 
-/// Values and first derivatives of the four non-zero cubic basis functions at `t` in span
-/// `k` (cheaper than [`ders`]): N′_{i,4} = 3 (N_{i,3}/(u_{i+3} − u_i) − N_{i+1,3}/(u_{i+4} − u_{i+1})).
-pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
+/// The triangular Cox–de Boor recurrence up to the cubics, keeping the three quadratics on
+/// the way (the first derivative is a difference of them).
+fn cubic_and_quadratic(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 3]) {
     let mut n = [0.0f64; 4];
     let mut left = [0.0f64; 4];
     let mut right = [0.0f64; 4];
@@ -108,6 +93,13 @@ pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
         }
         n[j] = saved;
     }
+    (n, quad)
+}
+
+/// Values and first derivatives of the four non-zero cubic basis functions at `t` in span
+/// `k` (cheaper than [`ders`]): N′_{i,4} = 3 (N_{i,3}/(u_{i+3} − u_i) − N_{i+1,3}/(u_{i+4} − u_{i+1})).
+pub fn values_d1(u: &[f64], k: usize, t: f64) -> ([f64; 4], [f64; 4]) {
+    let (n, quad) = cubic_and_quadratic(u, k, t);
     // quad[b] = N_{k-2+b, 3}(t); q(a) = N_{k-3+a, 3}, zero outside.
     let q = |a: usize| if a == 0 || a == 4 { 0.0 } else { quad[a - 1] };
     let mut d = [0.0f64; 4];

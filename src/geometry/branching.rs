@@ -572,21 +572,12 @@ fn intermediate_contours_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::polygon::is_simple;
-
-    fn circle(cx: f64, cy: f64, r: f64, n: usize) -> Vec<Point> {
-        (0..n)
-            .map(|k| {
-                let t = k as f64 * std::f64::consts::TAU / n as f64;
-                [cx + r * t.cos(), cy + r * t.sin()]
-            })
-            .collect()
-    }
+    use crate::geometry::polygon::{circle, is_simple};
 
     #[test]
     fn concentric_circles_interpolate_to_the_mean_radius() {
-        let a = circle(1.0, -2.0, 10.0, 400);
-        let b = circle(1.0, -2.0, 6.0, 400);
+        let a = circle(1.0, -2.0, 10.0, 400, true);
+        let b = circle(1.0, -2.0, 6.0, 400, true);
         let cell = 0.1;
         let r = intermediate_contours(&[&a], &[&b], cell).unwrap();
         assert!(r.warnings.is_empty(), "{:?}", r.warnings);
@@ -608,7 +599,7 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_errors() {
-        let a = circle(0.0, 0.0, 1.0, 20);
+        let a = circle(0.0, 0.0, 1.0, 20, true);
         assert!(matches!(
             intermediate_contours(&[], &[&a], 0.1),
             Err(GeometryError::Empty(_))
@@ -625,7 +616,7 @@ mod tests {
 
     #[test]
     fn huge_raster_is_coarsened_with_a_warning() {
-        let a = circle(0.0, 0.0, 100.0, 100);
+        let a = circle(0.0, 0.0, 100.0, 100, true);
         let mut warnings = Vec::new();
         let g = raster_for(&[&a], 0.01, &mut warnings).unwrap();
         assert!(g.len() <= MAX_RASTER_CELLS && g.cell_mm > 0.01);

@@ -168,20 +168,8 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::polygon::circle;
     use crate::geometry::polygon::is_simple;
-
-    fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point> {
-        let mut v: Vec<Point> = (0..n)
-            .map(|k| {
-                let t = k as f64 * std::f64::consts::TAU / n as f64;
-                [cx + r * t.cos(), cy + r * t.sin()]
-            })
-            .collect();
-        if !ccw {
-            v.reverse();
-        }
-        v
-    }
 
     #[test]
     fn disc_caps_at_its_centre() {

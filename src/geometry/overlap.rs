@@ -178,20 +178,8 @@ pub fn regions_overlap(a: &Region, b: &Region, min_area_mm2: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::polygon::circle;
     use std::f64::consts::PI;
-
-    fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point> {
-        let mut v: Vec<Point> = (0..n)
-            .map(|k| {
-                let t = k as f64 * std::f64::consts::TAU / n as f64;
-                [cx + r * t.cos(), cy + r * t.sin()]
-            })
-            .collect();
-        if !ccw {
-            v.reverse();
-        }
-        v
-    }
 
     /// Area of the intersection of two polygons' materials by brute-force sampling is too
     /// slow here; use the polygonal lens: two regular 2000-gons are within 1e-5 of circles.

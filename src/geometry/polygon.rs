@@ -171,6 +171,22 @@ fn collinear_overlap(a: Point, b: Point, c: Point, d: Point) -> bool {
     u[0] * v[1] - u[1] * v[0] == 0.0 && u[0] * v[0] + u[1] * v[1] > 0.0
 }
 
+/// A regular polygon of `n` points on a circle, counter-clockwise (clockwise when `!ccw`):
+/// the shape most geometry tests start from.
+#[cfg(test)]
+pub(crate) fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point> {
+    let mut v: Vec<Point> = (0..n)
+        .map(|k| {
+            let t = k as f64 * std::f64::consts::TAU / n as f64;
+            [cx + r * t.cos(), cy + r * t.sin()]
+        })
+        .collect();
+    if !ccw {
+        v.reverse();
+    }
+    v
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
