@@ -12,18 +12,23 @@
 //! Algorithm 1 on CLIST's first, N_max = most points of any contour; binary search on N with
 //! the invariant "N_upp feasible, its curves stored" (see [`super::fit`] for why not the
 //! paper's T_pre). For a trial N, each contour gets its own domain knots (Eq. 4 / Eq. 5, or
-//! resampling on its interpolant D(t) when it has fewer than N points — those resampled points
-//! then also serve as fitting data, since N control points cannot be fitted to fewer points);
+//! resampling on its interpolant D(t) up to 2N points when it has fewer than 2N — those
+//! resampled points then also serve as fitting data, since N control points cannot be fitted
+//! to fewer points, and are held to the tolerance too; the paper resamples to exactly N, an
+//! interpolation on knots that are not the contour's own, which can swing far off between
+//! its sites);
 //! the common domain knots are their average (caps excluded). Gap filling (Fig. 5): a span of
 //! the common knots holding no parameter of a contour gets two extra points of that contour's
 //! polygon at 1/3 and 2/3 of the span (not at the midpoint: one point per span exactly at the
 //! midpoints makes the periodic cubic collocation matrix singular for an even count). Extra
-//! points are fitting data only; errors are measured on the contour's own points. The first
-//! failing contour moves to the front of CLIST.
+//! points are fitting data; the reported errors are measured on the contour's own points, but
+//! success also needs every extra point within the tolerance. The first failing contour moves
+//! to the front of CLIST.
 //!
-//! When even N_max fails (e.g. the averaged knots suit one contour badly and gap filling turns
-//! its interpolation into approximation), the N_max fit of every contour is returned with
-//! `met = false` and the per-curve errors, rather than an error: the caller decides.
+//! When N_max fails (the averaged knots suit one contour badly, or its resampled points need
+//! more freedom than its own point count), the search doubles N up to 4 N_max. When even that
+//! fails, the N_max fit of every contour is returned with `met = false` and the per-curve
+//! errors, rather than an error: the caller decides.
 
 use super::closed_curve::ClosedCurve;
 use super::fit::{
@@ -132,6 +137,7 @@ pub fn fit_common<const D: usize>(
     let mut upp = n_max;
     let mut now = n_min;
     let mut best: Option<(PeriodicKnotVector, Vec<Option<ContourFit<D>>>)> = None;
+    let cap = 4 * n_max;
     loop {
         match trial(&mut items, now, &clist, opts, true)? {
             Trial::Ok(k, fits) => {
@@ -147,7 +153,18 @@ pub fn fit_common<const D: usize>(
             }
         }
         if upp <= low + 1 {
-            break;
+            if best.is_some() || low >= cap {
+                break;
+            }
+            // N_max was presumed feasible and is not (resampled points held to the
+            // tolerance can need more): test it, then double up to the cap.
+            if low < upp {
+                now = upp;
+            } else {
+                upp = (2 * upp).min(cap);
+                now = upp;
+            }
+            continue;
         }
         now = (low + upp) / 2;
     }
@@ -198,6 +215,9 @@ pub fn fit_common<const D: usize>(
     Ok(out)
 }
 
+/// Fitting data per control point a contour of a region gets at least (see [`trial`]).
+const OVERSAMPLE: usize = 2;
+
 /// One trial of Algorithm 2 with `n1` control points: common knots, gap filling, fits in
 /// CLIST order. With `early_exit`, stops at the first contour missing the tolerance (or whose
 /// system is singular); without it, fits all and fails only on a singular system.
@@ -216,14 +236,18 @@ fn trial<const D: usize>(
         match item {
             Item::Cap(_) => data.push(None),
             Item::Contour { pts, interp } => {
-                let (combined, orig) = if pts.len() >= n1 {
+                // Fewer than 2N points: resample D(t) up to 2N, so the fit on the averaged
+                // (not the contour's own) knots is least squares with data in every span;
+                // resampling to exactly N made it an interpolation whose sites could sit
+                // badly against those knots and swing far off between them.
+                let (combined, orig) = if pts.len() >= OVERSAMPLE * n1 {
                     (pts.clone(), vec![true; pts.len()])
                 } else {
                     if interp.is_none() {
                         *interp = Some(interpolate(pts)?);
                     }
                     match interp {
-                        Some(i) => resample(pts, i, n1),
+                        Some(i) => resample(pts, i, OVERSAMPLE * n1),
                         None => return Err(BsplineError::Singular("no interpolant".into())),
                     }
                 };

@@ -14,7 +14,9 @@
 //!   get more least-squares weight (`minimax_weights`, Lawson-style); and a fit whose residual
 //!   cannot reach 1.5 × tol even if the last round's improvement rate continued is abandoned
 //!   early (it would fail anyway; this makes the failing trials of the searches cheap).
-//! - Success: every point's *true* distance to the curve ≤ tolerance. |P_j − C(u_j)| is an
+//! - Success: every point's *true* distance to the curve ≤ tolerance, and so is every extra
+//!   point (resampled on D(t), or filling a knot span that holds no point): a curve that
+//!   swings away between the points does not follow the contour. |P_j − C(u_j)| is an
 //!   upper bound of it, so it is checked first, then a local projection, and the global
 //!   search only where that still exceeds the tolerance.
 //! - The normal equations are solved in O(n) ([`CyclicBandedMatrix`]); a fit costs O(m + n)
@@ -403,6 +405,27 @@ pub(crate) fn fit_on_knots<const D: usize>(
             }
         }
     }
+    // The extras (points resampled on D(t), gap fillers on the polygon) sample the contour
+    // where it has no points of its own; a curve that meets every original point but swings
+    // away between them (seen: a 30-point contour on 32 averaged common knots reaching twice
+    // its radius between points) must fail too, or the surface folds there.
+    if met {
+        for (x, t) in extras {
+            if norm(&sub(x, &curve.eval(*t))) <= tol {
+                continue;
+            }
+            let (d, t) = curve.project_from(x, *t);
+            if d > tol {
+                if boxes.is_empty() {
+                    boxes = curve.span_boxes();
+                }
+                if curve.refine_boxes(x, (d, t), &boxes).0 > tol {
+                    met = false;
+                    break;
+                }
+            }
+        }
+    }
     let max_error = errors.iter().copied().fold(0.0, f64::max);
     Ok(ContourFit {
         curve,
@@ -442,7 +465,7 @@ pub(crate) fn finalize<const D: usize>(mut fit: ContourFit<D>, tol: f64) -> Cont
         max_error = max_error.max(d);
     }
     fit.max_error = max_error;
-    fit.met = max_error <= tol;
+    fit.met &= max_error <= tol; // a failing extra point (see fit_on_knots) still fails
     fit
 }
 
