@@ -35,6 +35,11 @@ pub struct SkinnedSurface {
     /// Per patch (u span s, v span index q), index s·|v_spans| + q: bounding box of its 16
     /// control points, which holds the patch (convex hull property).
     patch_boxes: Vec<(P3, P3)>,
+    /// Boxes of whole rows of patches (every u span of one v span), as a complete binary tree
+    /// over the v spans: node 1 is the root, node i's children are 2i and 2i+1, row q is leaf
+    /// `row_tree.len() / 2 + q`. The closest-point search descends it rather than measuring
+    /// every patch, which made certifying a long surface quadratic in its length.
+    row_tree: Vec<(P3, P3)>,
 }
 
 impl SkinnedSurface {
@@ -113,6 +118,7 @@ impl SkinnedSurface {
                 patch_boxes.push((lo, hi));
             }
         }
+        let row_tree = row_tree(&patch_boxes, v_spans.len());
         Ok(Self {
             u_knots,
             v_knots,
@@ -120,6 +126,7 @@ impl SkinnedSurface {
             v_bar,
             v_spans,
             patch_boxes,
+            row_tree,
         })
     }
 
@@ -390,6 +397,34 @@ impl SkinnedSurface {
         self.refine_patches(p, best)
     }
 
+    /// Patches whose box is nearer to `p` than `bound`, with that lower bound: the rows of
+    /// [`Self::row_tree`] nearer than `bound`, then their patches.
+    fn patches_nearer(&self, p: &P3, bound: f64) -> Vec<(f64, usize)> {
+        let nq = self.v_spans.len();
+        let leaves = self.row_tree.len() / 2;
+        let mut out = Vec::new();
+        let mut stack = vec![1usize];
+        while let Some(i) = stack.pop() {
+            let (lo, hi) = &self.row_tree[i];
+            if box_dist(p, lo, hi) >= bound {
+                continue;
+            }
+            if i < leaves {
+                stack.extend([2 * i + 1, 2 * i]);
+                continue;
+            }
+            let q = i - leaves;
+            for idx in (q..self.patch_boxes.len()).step_by(nq) {
+                let (lo, hi) = &self.patch_boxes[idx];
+                let d = box_dist(p, lo, hi);
+                if d < bound {
+                    out.push((d, idx));
+                }
+            }
+        }
+        out
+    }
+
     /// Parameter rectangle (u_a, u_b, v_a, v_b) of patch `idx`.
     fn patch_rect(&self, idx: usize) -> (f64, f64, f64, f64) {
         let nq = self.v_spans.len();
@@ -496,13 +531,7 @@ impl SkinnedSurface {
     }
 
     fn refine_patches(&self, p: &P3, mut best: (f64, f64, f64)) -> (f64, f64, f64) {
-        let mut cand: Vec<(f64, usize)> = self
-            .patch_boxes
-            .iter()
-            .enumerate()
-            .map(|(i, (lo, hi))| (box_dist(p, lo, hi), i))
-            .filter(|c| c.0 < best.0 * (1.0 - 1e-12))
-            .collect();
+        let mut cand = self.patches_nearer(p, best.0 * (1.0 - 1e-12));
         cand.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         for (lb, idx) in cand {
             if lb >= best.0 * (1.0 - 1e-12) {
@@ -524,6 +553,28 @@ impl SkinnedSurface {
         }
         best
     }
+}
+
+/// See [`SkinnedSurface::row_tree`]: leaves are the unions of each v span's patch boxes.
+fn row_tree(patch_boxes: &[(P3, P3)], nq: usize) -> Vec<(P3, P3)> {
+    let empty = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let leaves = nq.max(1).next_power_of_two();
+    let mut tree = vec![empty; 2 * leaves];
+    for (idx, b) in patch_boxes.iter().enumerate() {
+        let node = &mut tree[leaves + idx % nq];
+        *node = union(node, b);
+    }
+    for i in (1..leaves).rev() {
+        tree[i] = union(&tree[2 * i], &tree[2 * i + 1]);
+    }
+    tree
+}
+
+fn union(a: &(P3, P3), b: &(P3, P3)) -> (P3, P3) {
+    (
+        std::array::from_fn(|i| a.0[i].min(b.0[i])),
+        std::array::from_fn(|i| a.1[i].max(b.1[i])),
+    )
 }
 
 /// Rows: the four Bézier points of span `k` (t ∈ [u_k, u_{k+1}]) as combinations of the

@@ -24,23 +24,14 @@ impl<W: Write + Seek> StlWriter<W> {
     }
 
     pub fn write_triangles(&mut self, tris: &[Triangle]) -> std::io::Result<()> {
-        let mut buf = Vec::with_capacity(50 * tris.len());
-        for t in tris {
-            let n = normal(t);
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            let n = if len > 0.0 {
-                [n[0] / len, n[1] / len, n[2] / len]
-            } else {
-                [0.0; 3]
-            };
-            for v in std::iter::once(&n).chain(t.iter()) {
-                for c in v {
-                    buf.extend_from_slice(&(*c as f32).to_le_bytes());
-                }
-            }
-            buf.extend_from_slice(&[0, 0]);
+        // In chunks: one buffer for a whole long surface was the largest allocation of a run.
+        const CHUNK: usize = 1024;
+        let mut buf = Vec::with_capacity(50 * CHUNK.min(tris.len()));
+        for chunk in tris.chunks(CHUNK) {
+            buf.clear();
+            encode(chunk, &mut buf);
+            self.out.write_all(&buf)?;
         }
-        self.out.write_all(&buf)?;
         self.count = self
             .count
             .checked_add(tris.len() as u32)
@@ -58,6 +49,25 @@ impl<W: Write + Seek> StlWriter<W> {
 
     pub fn count(&self) -> u32 {
         self.count
+    }
+}
+
+/// 50 bytes per triangle: unit normal, three vertices (f32), a zero attribute.
+fn encode(tris: &[Triangle], buf: &mut Vec<u8>) {
+    for t in tris {
+        let n = normal(t);
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let n = if len > 0.0 {
+            [n[0] / len, n[1] / len, n[2] / len]
+        } else {
+            [0.0; 3]
+        };
+        for v in std::iter::once(&n).chain(t.iter()) {
+            for c in v {
+                buf.extend_from_slice(&(*c as f32).to_le_bytes());
+            }
+        }
+        buf.extend_from_slice(&[0, 0]);
     }
 }
 
