@@ -4,7 +4,7 @@ users run today with the `vtk` Python package.
 
 read the series -> vtkFlyingEdges3D at the threshold (HU) -> vtkWindowedSincPolyDataFilter
 (20 iterations, pass band 0.1, normalised coordinates) -> vtkQuadricDecimation (target
-reduction 0.9) -> vtkSTLWriter (binary) to OUT.
+reduction 0.9, or --decimate) -> vtkSTLWriter (binary) to OUT.
 
 Reading (--reader): `vtk` = vtkDICOMImageReader on the directory (uncompressed transfer
 syntaxes only; it applies RescaleSlope/Intercept itself: the skull phantom's scalar range comes
@@ -44,7 +44,8 @@ def read_pydicom(d):
         h = float(np.dot([float(v) for v in ds.ImagePositionPatient], np.cross(iop[:3], iop[3:])))
         hu = ds.pixel_array.astype(np.float32) * float(getattr(ds, "RescaleSlope", 1.0)) \
             + float(getattr(ds, "RescaleIntercept", 0.0))
-        slices.append((h, hu, [float(v) for v in ds.PixelSpacing]))
+        slices.append((h, hu, [float(v) for v in ds.PixelSpacing],
+                       [float(v) for v in ds.ImagePositionPatient], iop))
     slices.sort(key=lambda s: s[0])
     vol = np.stack([s[1] for s in slices])  # (z, rows, cols)
     dz = (slices[-1][0] - slices[0][0]) / max(1, len(slices) - 1)
@@ -52,7 +53,13 @@ def read_pydicom(d):
     img = vtk.vtkImageData()
     img.SetDimensions(vol.shape[2], vol.shape[1], vol.shape[0])
     img.SetSpacing(dc, dr, dz)
-    img.SetOrigin(0.0, 0.0, slices[0][0])
+    # Patient coordinates when the slices are axial (row along +x, column along +y), so the
+    # mesh can be compared with bskin's in place; otherwise only z is placed.
+    ipp, iop = slices[0][3], slices[0][4]
+    if np.allclose(iop, [1, 0, 0, 0, 1, 0], atol=1e-6):
+        img.SetOrigin(ipp[0], ipp[1], slices[0][0])
+    else:
+        img.SetOrigin(0.0, 0.0, slices[0][0])
     arr = numpy_support.numpy_to_vtk(vol.ravel(), deep=True, array_type=vtk.VTK_FLOAT)
     img.GetPointData().SetScalars(arr)
     del vol, slices
@@ -78,6 +85,8 @@ def main():
     ap.add_argument("-o", "--out", required=True)
     ap.add_argument("--threshold", type=float, default=300.0)
     ap.add_argument("--reader", choices=["auto", "vtk", "pydicom"], default="auto")
+    ap.add_argument("--decimate", type=float, default=0.9,
+                    help="quadric decimation target reduction (0 = none)")
     a = ap.parse_args()
     t = {}
     t0 = time.perf_counter()
@@ -119,7 +128,7 @@ def main():
     t1 = time.perf_counter()
     dec = vtk.vtkQuadricDecimation()
     dec.SetInputConnection(sm.GetOutputPort())
-    dec.SetTargetReduction(0.9)
+    dec.SetTargetReduction(a.decimate)
     dec.Update()
     tris = dec.GetOutput().GetNumberOfCells()
     t["decimate"] = time.perf_counter() - t1
