@@ -16,7 +16,6 @@
 //!   distance d on a grid of h = 0.2 mm cells (error O(h²), well under 0.1 %), within `--z`.
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use bskin::phantom::Shape;
