@@ -28,20 +28,22 @@ pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<
         "field size must be width × height"
     );
     // Padded grid: one ring of outside samples around the image; NaN marks "outside, no value".
+    // Only two rows of it exist at a time, and the crossings are indexed by the edges of the
+    // current row of cells only: memory O(width), not O(width × height) (this runs on the
+    // distance-map rasters of branching problems, millions of samples each).
     let pw = width + 2;
     let ph = height + 2;
-    let mut values = vec![f64::NAN; pw * ph];
-    let mut inside = vec![false; pw * ph];
-    for r in 0..height {
-        for c in 0..width {
-            let v = field[r * width + c] as f64;
-            if v.is_finite() {
-                let k = (r + 1) * pw + c + 1;
-                values[k] = v;
-                inside[k] = v >= level;
+    let fill_row = |row: &mut [f64], i: usize| {
+        row.fill(f64::NAN);
+        if i >= 1 && i <= height {
+            for (c, &v) in field[(i - 1) * width..i * width].iter().enumerate() {
+                let v = v as f64;
+                if v.is_finite() {
+                    row[c + 1] = v;
+                }
             }
         }
-    }
+    };
     // Crossing on the grid edge from sample a to sample b (one inside, one outside).
     let crossing_t = |va: f64, vb: f64| -> f64 {
         if va.is_nan() || vb.is_nan() {
@@ -51,29 +53,28 @@ pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<
         }
     };
 
-    // Edge ids: horizontal edge (i,j)-(i,j+1) = 2·(i·pw+j), vertical (i,j)-(i+1,j) = +1.
-    let mut crossing_of_edge = vec![u32::MAX; 2 * pw * ph];
     let mut points: Vec<Point> = Vec::new();
     // next[crossing] = the crossing its segment leads to (inside on the left).
     let mut next: Vec<u32> = Vec::new();
     // Segment starts in scan order, so loops come out in a fixed order.
     let mut starts: Vec<u32> = Vec::new();
+    // Samples of the cell row's top (i) and bottom (i + 1) grid rows; crossings on its top and
+    // bottom horizontal edges (by column) and on its vertical edges (by column).
+    let (mut top, mut bottom) = (vec![f64::NAN; pw], vec![f64::NAN; pw]);
+    let none = u32::MAX;
+    let (mut h_top, mut h_bottom, mut vert) = (vec![none; pw], vec![none; pw], vec![none; pw]);
+    fill_row(&mut bottom, 0);
 
     for i in 0..ph - 1 {
+        std::mem::swap(&mut top, &mut bottom);
+        fill_row(&mut bottom, i + 1);
+        std::mem::swap(&mut h_top, &mut h_bottom);
+        h_bottom.fill(none);
+        vert.fill(none);
         for j in 0..pw - 1 {
             // Corners counter-clockwise in (x, y): TL, TR, BR, BL.
-            let idx = [
-                i * pw + j,
-                i * pw + j + 1,
-                (i + 1) * pw + j + 1,
-                (i + 1) * pw + j,
-            ];
-            let ins = [
-                inside[idx[0]],
-                inside[idx[1]],
-                inside[idx[2]],
-                inside[idx[3]],
-            ];
+            let v = [top[j], top[j + 1], bottom[j + 1], bottom[j]];
+            let ins = v.map(|x| x >= level);
             if ins[0] == ins[1] && ins[1] == ins[2] && ins[2] == ins[3] {
                 continue;
             }
@@ -83,27 +84,32 @@ pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<
                 ((j + 1) as f64, (i + 1) as f64),
                 (j as f64, (i + 1) as f64),
             ];
-            // Cell edges in the same order: e_k joins corner k to corner k+1.
-            let edge_ids = [2 * idx[0], 2 * idx[1] + 1, 2 * idx[3], 2 * idx[0] + 1];
-            // (exit?, crossing) for each edge whose ends differ, in counter-clockwise order.
+            // (exit?, crossing) for each edge whose ends differ, in counter-clockwise order;
+            // e_k joins corner k to corner k+1: top, right, bottom, left.
             let mut crossings = [(false, 0u32); 4];
             let mut count = 0;
-            for (k, &edge) in edge_ids.iter().enumerate() {
+            for k in 0..4 {
                 let (a, b) = (k, (k + 1) % 4);
                 if ins[a] == ins[b] {
                     continue;
                 }
-                if crossing_of_edge[edge] == u32::MAX {
-                    let t = crossing_t(values[idx[a]], values[idx[b]]);
+                let slot = match k {
+                    0 => &mut h_top[j],
+                    1 => &mut vert[j + 1],
+                    2 => &mut h_bottom[j],
+                    _ => &mut vert[j],
+                };
+                if *slot == none {
+                    let t = crossing_t(v[a], v[b]);
                     let (pa, pb) = (pos[a], pos[b]);
-                    crossing_of_edge[edge] = points.len() as u32;
+                    *slot = points.len() as u32;
                     points.push([
                         pa.0 + t * (pb.0 - pa.0) - 1.0,
                         pa.1 + t * (pb.1 - pa.1) - 1.0,
                     ]);
-                    next.push(u32::MAX);
+                    next.push(none);
                 }
-                crossings[count] = (ins[a], crossing_of_edge[edge]);
+                crossings[count] = (ins[a], *slot);
                 count += 1;
             }
             // Walking the cell boundary counter-clockwise, the inside region's boundary leaves
@@ -122,7 +128,6 @@ pub fn iso_loops(field: &[f32], width: usize, height: usize, level: f64) -> Vec<
                     link(crossings[1].1, crossings[0].1);
                 }
             } else {
-                let v = idx.map(|k| values[k]);
                 let centre = if v.iter().any(|x| x.is_nan()) {
                     f64::NEG_INFINITY
                 } else {
