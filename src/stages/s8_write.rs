@@ -1,5 +1,6 @@
-//! Stage 8: writers. Surfaces arrive in region order; each is tessellated and streamed into
-//! `mesh.stl`, and summarised for `report.json`. The CAD files (`surfaces.step`,
+//! Stage 8: writers. Surfaces arrive in region order; each is put into the output coordinate
+//! system ([`CoordinateSystem`]: DICOM LPS, or RAS), tessellated once and streamed into the
+//! meshes asked for (`mesh.stl`, `mesh.obj`, `mesh.ply`), and summarised for `report.json`. The CAD files (`surfaces.step`,
 //! `surfaces.igs`) and the optional `samples.json` need every surface, so the surfaces are
 //! kept as they arrive and those files are written at the end, in region order. Which files
 //! are written is [`OutputOptions`]. Files are written under temporary names and renamed only
@@ -13,9 +14,11 @@ use crossbeam_channel::Receiver;
 use super::s7_skinning::Surface;
 use super::{Control, StageStats};
 use crate::bspline::SkinnedSurface;
-use crate::config::OutputOptions;
+use crate::config::{CoordinateSystem, OutputOptions};
 use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
+use crate::io::obj::ObjWriter;
+use crate::io::ply::PlyWriter;
 use crate::io::report::{FileReport, Report, SurfaceReport};
 use crate::io::stl::StlWriter;
 use crate::mesh::tessellate;
@@ -25,6 +28,8 @@ use crate::{Error, Result};
 pub const STAGE: &str = "write";
 
 pub const MESH_FILE: &str = "mesh.stl";
+pub const OBJ_FILE: &str = "mesh.obj";
+pub const PLY_FILE: &str = "mesh.ply";
 pub const STEP_FILE: &str = "surfaces.step";
 pub const IGES_FILE: &str = "surfaces.igs";
 pub const SAMPLES_FILE: &str = "samples.json";
@@ -95,33 +100,77 @@ pub fn run(
         },
         ..Default::default()
     };
+    let system = outputs.coordinates;
+    let cs = system.name();
     let mesh_path = out_dir.join(MESH_FILE);
     let err = output_error(&mesh_path);
     let mut stl = if outputs.stl {
         Some(
             StlWriter::new(
                 AtomicFile::create(&mesh_path)?,
-                "bskin mesh, patient LPS mm",
+                &format!("bskin mesh, patient {cs} mm"),
             )
             .map_err(&err)?,
         )
     } else {
         None
     };
+    let mesh_comment = format!(
+        "bskin {} mesh of B-spline surfaces\nunits: mm\ncoordinates: patient {cs}{}\n\
+         faces wound counter-clockwise seen from outside (normals point out of the material)",
+        env!("CARGO_PKG_VERSION"),
+        match system {
+            CoordinateSystem::Lps => " (DICOM: x left, y posterior, z superior)",
+            CoordinateSystem::Ras => " (x right, y anterior, z superior)",
+        }
+    );
+    let obj_path = out_dir.join(OBJ_FILE);
+    let obj_err = output_error(&obj_path);
+    let mut obj = if outputs.obj {
+        let c = format!(
+            "{mesh_comment}\none object and group per surface: surface_<id> as in report.json"
+        );
+        Some(ObjWriter::new(AtomicFile::create(&obj_path)?, &c).map_err(&obj_err)?)
+    } else {
+        None
+    };
+    let ply_path = out_dir.join(PLY_FILE);
+    let ply_err = output_error(&ply_path);
+    let mut ply = if outputs.ply {
+        Some(
+            PlyWriter::new(AtomicFile::create(&ply_path)?, &mesh_comment, out_dir)
+                .map_err(&ply_err)?,
+        )
+    } else {
+        None
+    };
+    let any_mesh = stl.is_some() || obj.is_some() || ply.is_some();
     let keep = outputs.step || outputs.iges || outputs.samples;
     let mut kept: Vec<SkinnedSurface> = Vec::new();
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
         let mut triangles = 0;
-        if let Some(stl) = stl.as_mut() {
-            let tris = tessellate(&s.surface, samples_per_span);
-            stl.write_triangles(&tris).map_err(&err)?;
+        let id = s.region.id;
+        let mut report = summarise(&s, tolerance, 0);
+        let surface = in_system(s.surface, system)?;
+        if any_mesh {
+            let tris = tessellate(&surface, samples_per_span);
+            if let Some(stl) = stl.as_mut() {
+                stl.write_triangles(&tris).map_err(&err)?;
+            }
+            if let Some(obj) = obj.as_mut() {
+                obj.write_surface(id, &tris).map_err(&obj_err)?;
+            }
+            if let Some(ply) = ply.as_mut() {
+                ply.write_surface(id, &tris).map_err(&ply_err)?;
+            }
             triangles = tris.len();
         }
-        written.surfaces.push(summarise(&s, tolerance, triangles));
+        report.triangles = triangles;
+        written.surfaces.push(report);
         if keep {
-            kept.push(s.surface);
+            kept.push(surface);
         }
         written.stats.busy += t.elapsed();
         written.stats.items += 1;
@@ -133,6 +182,15 @@ pub fn run(
         file.commit()?;
         written.files.push(file_report(&mesh_path)?);
     }
+    if let Some(obj) = obj {
+        obj.finish().map_err(&obj_err)?.commit()?;
+        written.files.push(file_report(&obj_path)?);
+    }
+    if let Some(ply) = ply {
+        ctl.check()?;
+        ply.finish().map_err(&ply_err)?.commit()?;
+        written.files.push(file_report(&ply_path)?);
+    }
     let refs: Vec<&SkinnedSurface> = kept.iter().collect();
     type Writer = fn(&mut AtomicFile, &[&SkinnedSurface], &CadMeta) -> std::io::Result<()>;
     let writers: [(bool, &str, Writer); 3] = [
@@ -142,8 +200,8 @@ pub fn run(
         (outputs.iges, IGES_FILE, |f, s, m| {
             crate::io::iges::write_iges(f, s, m)
         }),
-        (outputs.samples, SAMPLES_FILE, |f, s, _| {
-            crate::io::samples::write_samples(f, s)
+        (outputs.samples, SAMPLES_FILE, |f, s, m| {
+            crate::io::samples::write_samples(f, s, m.coordinates)
         }),
     ];
     for (on, name, write) in writers {
@@ -154,6 +212,7 @@ pub fn run(
         let path = out_dir.join(name);
         let meta = CadMeta {
             file_name: name.to_string(),
+            coordinates: cs,
             ..Default::default()
         };
         let mut f = AtomicFile::create(&path)?;
@@ -163,6 +222,23 @@ pub fn run(
     }
     written.stats.busy += t.elapsed();
     Ok(written)
+}
+
+/// `s` (in DICOM patient LPS) in `system`. A B-spline maps to a B-spline of the mapped control
+/// points under any affine map, so mapping the control points maps every output (mesh, CAD
+/// files, samples) alike; RAS only changes signs, so it is exact.
+fn in_system(s: SkinnedSurface, system: CoordinateSystem) -> Result<SkinnedSurface> {
+    if system == CoordinateSystem::Lps {
+        return Ok(s);
+    }
+    let control = s.control().iter().map(|&p| system.from_lps(p)).collect();
+    SkinnedSurface::try_new(
+        s.u_knots().clone(),
+        s.v_knots().clone(),
+        control,
+        s.v_bar().to_vec(),
+    )
+    .map_err(|e| Error::Internal(format!("surface in {}: {e}", system.name())))
 }
 
 pub fn file_report(path: &Path) -> Result<FileReport> {
