@@ -251,7 +251,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let mut config = RunConfig::with_tolerance(args.tolerance);
     config.contour = opts.clone();
     config.outputs =
-        OutputOptions::from_formats(&args.formats).map_err(|e| Error::bad_input("--formats", e))?;
+        OutputOptions::from_formats(&args.formats).map_err(|e| Error::usage("--formats", e))?;
     config.outputs.samples = args.write_samples;
     if args.ras {
         config.outputs.coordinates = CoordinateSystem::Ras;
