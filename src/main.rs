@@ -275,8 +275,10 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let input_path = &args.series.input;
     let from_stdin = input_path.as_os_str() == "-";
     let series;
+    let mut threshold = Some(opts.threshold.into());
     let (input, summary) = if from_stdin {
         let reader = NdjsonReader::new(std::io::BufReader::new(std::io::stdin()))?;
+        threshold = reader.header.as_ref().and_then(|h| h.threshold.clone());
         let summary = reader
             .header
             .as_ref()
@@ -319,7 +321,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
                 .input
                 .slice_spacing()
                 .map(|(min, mean, max)| SliceSpacing { min, mean, max }),
-            threshold: format!("{:?}", opts.threshold),
+            threshold,
             min_area_mm2: opts.min_area_mm2,
             fill_holes: opts.fill_holes,
             compress_tol_mm: opts.compress_tol_mm,

@@ -322,3 +322,25 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("vrml") && stderr(&o).contains("obj, ply"));
 }
+
+#[test]
+fn piped_contours_report_the_threshold_they_were_made_with() {
+    let c = bskin(&[
+        "contours",
+        testdata().to_str().unwrap(),
+        "-q",
+        "--threshold",
+        "250",
+    ]);
+    assert!(c.status.success(), "{}", stderr(&c));
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("piped");
+    let o = bskin_with_stdin(&["run", "-", "-o", out.to_str().unwrap(), "-q"], &c.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["input"]["threshold"],
+        serde_json::json!({"above": 250.0})
+    );
+}

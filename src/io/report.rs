@@ -4,11 +4,13 @@
 
 use serde::Serialize;
 
+use crate::io::ndjson::ThresholdRecord;
 use crate::section::SeriesSummary;
 use crate::stages::StageStats;
 
 pub const FORMAT: &str = "bskin-report";
-/// 2: `input.slice_spacing_mm` added; `coordinates` follows `--ras`.
+/// 2: `input.slice_spacing_mm` added; `input.threshold` an object (was Rust debug text);
+/// `coordinates` follows `--ras`.
 pub const VERSION: u32 = 2;
 
 #[derive(Serialize, Debug, Clone)]
@@ -51,7 +53,9 @@ pub struct InputReport {
     /// Distance between consecutive slices along their normal (mm); `None` (null) for a single
     /// slice.
     pub slice_spacing_mm: Option<SliceSpacing>,
-    pub threshold: String,
+    /// `{"above": HU}` or `{"range": [lo, hi]}`: the segmentation of the images, or, for
+    /// contours read from NDJSON, the one its header records (null when it records none).
+    pub threshold: Option<ThresholdRecord>,
     pub min_area_mm2: f64,
     pub fill_holes: bool,
     pub compress_tol_mm: f64,
