@@ -6,6 +6,7 @@ pub mod cad;
 pub mod iges;
 pub mod indexed;
 pub mod listing;
+pub mod meshes;
 pub mod ndjson;
 pub mod obj;
 pub mod ply;

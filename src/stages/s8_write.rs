@@ -1,6 +1,7 @@
 //! Stage 8: writers. Surfaces arrive in region order; each is put into the output coordinate
 //! system ([`CoordinateSystem`]: DICOM LPS, or RAS), tessellated once and streamed into the
-//! meshes asked for (`mesh.stl`, `mesh.obj`, `mesh.ply`), and summarised for `report.json`. The CAD files (`surfaces.step`,
+//! meshes asked for ([`MeshWriters`]: `mesh.stl`, `mesh.obj`, `mesh.ply`), and summarised
+//! for `report.json`. The CAD files (`surfaces.step`,
 //! `surfaces.igs`) and the optional `samples.json` need every surface, so the surfaces are
 //! kept as they arrive and those files are written at the end, in region order. Which files
 //! are written is [`OutputOptions`]. Files are written under temporary names and renamed only
@@ -17,19 +18,15 @@ use crate::bspline::SkinnedSurface;
 use crate::config::{CoordinateSystem, OutputOptions};
 use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
-use crate::io::obj::ObjWriter;
-use crate::io::ply::PlyWriter;
+use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
-use crate::io::stl::StlWriter;
 use crate::mesh::tessellate;
 use crate::region::CurveOrigin;
 use crate::{Error, Result};
 
 pub const STAGE: &str = "write";
 
-pub const MESH_FILE: &str = "mesh.stl";
-pub const OBJ_FILE: &str = "mesh.obj";
-pub const PLY_FILE: &str = "mesh.ply";
+pub use crate::io::meshes::{OBJ_FILE, PLY_FILE, STL_FILE as MESH_FILE};
 pub const STEP_FILE: &str = "surfaces.step";
 pub const IGES_FILE: &str = "surfaces.igs";
 pub const SAMPLES_FILE: &str = "samples.json";
@@ -101,73 +98,19 @@ pub fn run(
         ..Default::default()
     };
     let system = outputs.coordinates;
-    let cs = system.name();
-    let mesh_path = out_dir.join(MESH_FILE);
-    let err = output_error(&mesh_path);
-    let mut stl = if outputs.stl {
-        Some(
-            StlWriter::new(
-                AtomicFile::create(&mesh_path)?,
-                &format!("bskin mesh, patient {cs} mm"),
-            )
-            .map_err(&err)?,
-        )
-    } else {
-        None
-    };
-    let mesh_comment = format!(
-        "bskin {} mesh of B-spline surfaces\nunits: mm\ncoordinates: patient {cs}{}\n\
-         faces wound counter-clockwise seen from outside (normals point out of the material)",
-        env!("CARGO_PKG_VERSION"),
-        match system {
-            CoordinateSystem::Lps => " (DICOM: x left, y posterior, z superior)",
-            CoordinateSystem::Ras => " (x right, y anterior, z superior)",
-        }
-    );
-    let obj_path = out_dir.join(OBJ_FILE);
-    let obj_err = output_error(&obj_path);
-    let mut obj = if outputs.obj {
-        let c = format!(
-            "{mesh_comment}\none object and group per surface: surface_<id> as in report.json"
-        );
-        Some(ObjWriter::new(AtomicFile::create(&obj_path)?, &c).map_err(&obj_err)?)
-    } else {
-        None
-    };
-    let ply_path = out_dir.join(PLY_FILE);
-    let ply_err = output_error(&ply_path);
-    let mut ply = if outputs.ply {
-        Some(
-            PlyWriter::new(AtomicFile::create(&ply_path)?, &mesh_comment, out_dir)
-                .map_err(&ply_err)?,
-        )
-    } else {
-        None
-    };
-    let any_mesh = stl.is_some() || obj.is_some() || ply.is_some();
+    let mut meshes = MeshWriters::create(out_dir, outputs)?;
     let keep = outputs.step || outputs.iges || outputs.samples;
     let mut kept: Vec<SkinnedSurface> = Vec::new();
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
-        let mut triangles = 0;
-        let id = s.region.id;
         let mut report = summarise(&s, tolerance, 0);
         let surface = in_system(s.surface, system)?;
-        if any_mesh {
+        if meshes.any() {
             let tris = tessellate(&surface, samples_per_span);
-            if let Some(stl) = stl.as_mut() {
-                stl.write_triangles(&tris).map_err(&err)?;
-            }
-            if let Some(obj) = obj.as_mut() {
-                obj.write_surface(id, &tris).map_err(&obj_err)?;
-            }
-            if let Some(ply) = ply.as_mut() {
-                ply.write_surface(id, &tris).map_err(&ply_err)?;
-            }
-            triangles = tris.len();
+            meshes.write_surface(report.id, &tris)?;
+            report.triangles = tris.len();
         }
-        report.triangles = triangles;
         written.surfaces.push(report);
         if keep {
             kept.push(surface);
@@ -177,19 +120,8 @@ pub fn run(
     }
     ctl.check()?;
     let t = Instant::now();
-    if let Some(stl) = stl {
-        let file = stl.finish().map_err(&err)?;
-        file.commit()?;
-        written.files.push(file_report(&mesh_path)?);
-    }
-    if let Some(obj) = obj {
-        obj.finish().map_err(&obj_err)?.commit()?;
-        written.files.push(file_report(&obj_path)?);
-    }
-    if let Some(ply) = ply {
-        ctl.check()?;
-        ply.finish().map_err(&ply_err)?.commit()?;
-        written.files.push(file_report(&ply_path)?);
+    for path in meshes.commit()? {
+        written.files.push(file_report(&path)?);
     }
     let refs: Vec<&SkinnedSurface> = kept.iter().collect();
     type Writer = fn(&mut AtomicFile, &[&SkinnedSurface], &CadMeta) -> std::io::Result<()>;
@@ -212,7 +144,7 @@ pub fn run(
         let path = out_dir.join(name);
         let meta = CadMeta {
             file_name: name.to_string(),
-            coordinates: cs,
+            coordinates: system.name(),
             ..Default::default()
         };
         let mut f = AtomicFile::create(&path)?;
