@@ -39,7 +39,7 @@ pub fn write_iges<W: Write>(
 
     let start = wrap_text(
         &format!(
-            "{}; {} bicubic B-spline surface(s), mm, patient {} coordinates",
+            "{}; {} bicubic B-spline surface(s), patient {} mm",
             meta.description,
             surfaces.len(),
             meta.coordinates

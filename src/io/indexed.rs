@@ -30,9 +30,9 @@ impl Indexed {
                 let key = p.map(f64::to_bits);
                 *index.entry(key).or_insert_with(|| {
                     out.vertices.push(p);
-                    // A surface's triangles are far fewer than 2^32 (checked by the writers'
-                    // totals); saturate rather than wrap if that were ever not so.
-                    u32::try_from(out.vertices.len() - 1).unwrap_or(u32::MAX)
+                    // 2^32 vertices of one surface would take 96 GB here before this point.
+                    u32::try_from(out.vertices.len() - 1)
+                        .expect("fewer than 2^32 vertices in one surface")
                 })
             });
             out.faces.push(face);
