@@ -93,12 +93,17 @@ pub struct RunArgs {
     pub segmentation: SegmentationArgs,
     #[command(flatten)]
     pub pipeline: PipelineArgs,
-    /// Output directory (created): report.json, mesh.stl, surfaces.step, surfaces.igs.
+    /// Output directory (created): report.json, mesh.stl, surfaces.step, surfaces.igs (and
+    /// mesh.obj, mesh.ply when asked for).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Files to write besides report.json, comma-separated: stl, step, igs.
+    /// Files to write besides report.json, comma-separated: stl, obj, ply, step, igs.
     #[arg(long, default_value = "stl,step,igs")]
     pub formats: String,
+    /// Write every geometric output in RAS (x right, y anterior) instead of DICOM patient LPS
+    /// (x left, y posterior): x → −x, y → −y.
+    #[arg(long)]
+    pub ras: bool,
     /// Also write samples.json: points of each surface by bskin's own evaluation, for checking
     /// the CAD files with another kernel (scripts/check_cad.py).
     #[arg(long, hide = true)]

@@ -46,11 +46,45 @@ pub struct RunConfig {
     pub outputs: OutputOptions,
 }
 
+/// The patient coordinate system of every geometric output (meshes, CAD files, samples).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CoordinateSystem {
+    /// DICOM patient coordinates: x to the patient's left, y to posterior, z to head.
+    #[default]
+    Lps,
+    /// x to the patient's right, y to anterior, z to head (NIfTI, 3D Slicer, ITK-SNAP world).
+    /// From LPS: x → −x, y → −y, a rotation by 180° about z, so orientation (triangle winding,
+    /// outward normals) is kept.
+    Ras,
+}
+
+impl CoordinateSystem {
+    /// "LPS" or "RAS", as written into the report and file headers.
+    pub fn name(self) -> &'static str {
+        match self {
+            CoordinateSystem::Lps => "LPS",
+            CoordinateSystem::Ras => "RAS",
+        }
+    }
+
+    /// A point given in DICOM patient LPS, in this system. Exact (sign changes only).
+    pub fn from_lps(self, p: [f64; 3]) -> [f64; 3] {
+        match self {
+            CoordinateSystem::Lps => p,
+            CoordinateSystem::Ras => [-p[0], -p[1], p[2]],
+        }
+    }
+}
+
 /// Output files of `bskin run` besides `report.json` (always written).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OutputOptions {
     /// `mesh.stl`.
     pub stl: bool,
+    /// `mesh.obj` (Wavefront OBJ, one group per surface).
+    pub obj: bool,
+    /// `mesh.ply` (binary little-endian PLY).
+    pub ply: bool,
     /// `surfaces.step`.
     pub step: bool,
     /// `surfaces.igs`.
@@ -58,37 +92,47 @@ pub struct OutputOptions {
     /// `samples.json`: points of each surface by bskin's own evaluation, for checking the CAD
     /// files against an independent kernel (debugging / CI).
     pub samples: bool,
+    /// Coordinate system of every geometric output.
+    pub coordinates: CoordinateSystem,
 }
 
 impl Default for OutputOptions {
     fn default() -> Self {
         OutputOptions {
             stl: true,
+            obj: false,
+            ply: false,
             step: true,
             iges: true,
             samples: false,
+            coordinates: CoordinateSystem::Lps,
         }
     }
 }
 
 impl OutputOptions {
-    /// From a comma-separated list of formats (`stl`, `step`, `igs`; `stp` and `iges` are
-    /// accepted too). Samples stay off.
+    /// From a comma-separated list of formats (`stl`, `obj`, `ply`, `step`, `igs`; `stp` and
+    /// `iges` are accepted too). Samples stay off; coordinates are LPS.
     pub fn from_formats(list: &str) -> Result<Self, String> {
         let mut o = OutputOptions {
             stl: false,
+            obj: false,
+            ply: false,
             step: false,
             iges: false,
             samples: false,
+            coordinates: CoordinateSystem::Lps,
         };
         for f in list.split(',').map(str::trim).filter(|f| !f.is_empty()) {
             match f.to_ascii_lowercase().as_str() {
                 "stl" => o.stl = true,
+                "obj" => o.obj = true,
+                "ply" => o.ply = true,
                 "step" | "stp" => o.step = true,
                 "igs" | "iges" => o.iges = true,
                 other => {
                     return Err(format!(
-                        "unknown format {other:?}; choose from stl, step, igs"
+                        "unknown format {other:?}; choose from stl, obj, ply, step, igs"
                     ))
                 }
             }

@@ -12,13 +12,13 @@ use std::time::Instant;
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use bskin::config::{ContoursConfig, OutputOptions, PipelineOptions, RunConfig};
+use bskin::config::{ContoursConfig, CoordinateSystem, OutputOptions, PipelineOptions, RunConfig};
 use bskin::dicom::{self, Series};
 use bskin::exit_codes::ExitCode;
 use bskin::geometry::contours::{ContourOptions, Threshold};
 use bskin::io::atomic::Output;
 use bskin::io::ndjson::{NdjsonReader, NdjsonWriter, SeriesRecord};
-use bskin::io::report::{InputReport, Report, Timings};
+use bskin::io::report::{InputReport, Report, SliceSpacing, Timings};
 use bskin::phantom::{self, PhantomSpec, Shape};
 use bskin::pipeline::RunInput;
 use bskin::stages::s8_write;
@@ -251,8 +251,11 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let mut config = RunConfig::with_tolerance(args.tolerance);
     config.contour = opts.clone();
     config.outputs =
-        OutputOptions::from_formats(&args.formats).map_err(|e| Error::bad_input("--formats", e))?;
+        OutputOptions::from_formats(&args.formats).map_err(|e| Error::usage("--formats", e))?;
     config.outputs.samples = args.write_samples;
+    if args.ras {
+        config.outputs.coordinates = CoordinateSystem::Ras;
+    }
     config.pipeline.channel_depth = args.pipeline.channel_depth.max(1);
     if let Some(c) = args.cell {
         if !(c.is_finite() && c > 0.0) {
@@ -272,8 +275,10 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let input_path = &args.series.input;
     let from_stdin = input_path.as_os_str() == "-";
     let series;
+    let mut threshold = Some(opts.threshold.into());
     let (input, summary) = if from_stdin {
         let reader = NdjsonReader::new(std::io::BufReader::new(std::io::stdin()))?;
+        threshold = reader.header.as_ref().and_then(|h| h.threshold.clone());
         let summary = reader
             .header
             .as_ref()
@@ -312,7 +317,11 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
             holes: result.input.holes,
             points_raw: result.input.points_raw,
             points_compressed: result.input.points_compressed,
-            threshold: format!("{:?}", opts.threshold),
+            slice_spacing_mm: result
+                .input
+                .slice_spacing()
+                .map(|(min, mean, max)| SliceSpacing { min, mean, max }),
+            threshold,
             min_area_mm2: opts.min_area_mm2,
             fill_holes: opts.fill_holes,
             compress_tol_mm: opts.compress_tol_mm,
@@ -320,7 +329,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         series: summary,
         tolerance_mm: config.tolerance_mm,
         units: "mm",
-        coordinates: "LPS",
+        coordinates: config.outputs.coordinates.name(),
         surfaces_total: surfaces.len(),
         input_points_total,
         control_points_total,
@@ -347,29 +356,8 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     };
     let report_path = s8_write::write_report(out, &report)?;
     if !quiet {
-        eprintln!(
-            "bskin: {} slices, {} contours ({} points) → {} surfaces, {} control points (reduction {:.1}×), max error {:.3} mm (tolerance {} mm{}), {:.2} s",
-            report.input.slices,
-            report.input.contours,
-            report.input.points_compressed,
-            report.surfaces_total,
-            report.control_points_total,
-            report.reduction_ratio,
-            report.max_error_mm,
-            report.tolerance_mm,
-            if report.tolerance_met { ", met" } else { ", NOT met" },
-            report.timings.wall_s
-        );
-        for w in &report.warnings {
-            eprintln!("bskin: warning: {w}");
-        }
-        let mut names: Vec<String> = report.files.iter().map(|f| f.name.clone()).collect();
-        names.push(s8_write::REPORT_FILE.to_string());
-        eprintln!(
-            "bskin: wrote {} in {}",
-            names.join(", "),
-            report_path.parent().unwrap_or(out).display()
-        );
+        let dir = report_path.parent().unwrap_or(out).display().to_string();
+        eprint!("{}", report.summary(&dir));
     }
     Ok(())
 }

@@ -35,6 +35,10 @@ pub struct ContoursSummary {
     pub points_raw: usize,
     pub points_compressed: usize,
     pub dropped_small: usize,
+    /// Heights (along the slice normal, mm) of the first and last section, and the smallest
+    /// and largest distance between consecutive sections (sections arrive in ascending height).
+    pub heights: Option<(f64, f64)>,
+    pub spacing_range: Option<(f64, f64)>,
 }
 
 /// Load → contours → `sink`, which receives every section in ascending height on the calling
@@ -93,6 +97,15 @@ pub fn run_contours(
 }
 
 impl ContoursSummary {
+    /// `(min, mean, max)` distance between consecutive sections (mm); `None` for fewer than
+    /// two sections.
+    pub fn slice_spacing(&self) -> Option<(f64, f64, f64)> {
+        let (first, last) = self.heights?;
+        let (lo, hi) = self.spacing_range?;
+        let mean = (last - first).abs() / (self.sections - 1) as f64;
+        Some((lo, mean, hi))
+    }
+
     fn count(&mut self, compiled: &CompiledSection) {
         self.count_section(
             &compiled.section,
@@ -103,6 +116,17 @@ impl ContoursSummary {
 
     /// A section whose contours had `points_raw` points before compression.
     fn count_section(&mut self, s: &Section, points_raw: usize, dropped_small: usize) {
+        let h = s.frame.height();
+        if let Some((first, last)) = self.heights {
+            let d = (h - last).abs();
+            self.spacing_range = Some(match self.spacing_range {
+                Some((lo, hi)) => (lo.min(d), hi.max(d)),
+                None => (d, d),
+            });
+            self.heights = Some((first, h));
+        } else {
+            self.heights = Some((h, h));
+        }
         self.sections += 1;
         self.empty_sections += usize::from(s.contours.is_empty());
         self.contours += s.contours.len();

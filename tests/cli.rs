@@ -139,10 +139,21 @@ fn contours_and_surfaces_are_identical_whatever_the_thread_count() {
             dir.to_str().unwrap(),
             "-o",
             out.to_str().unwrap(),
+            "--formats",
+            "stl,obj,ply,step,igs",
             "-q",
         ]);
         assert!(r.status.success(), "{}", stderr(&r));
-        meshes.push(std::fs::read(out.join("mesh.stl")).unwrap());
+        meshes.push(
+            [
+                "mesh.stl",
+                "mesh.obj",
+                "mesh.ply",
+                "surfaces.step",
+                "surfaces.igs",
+            ]
+            .map(|f| std::fs::read(out.join(f)).unwrap()),
+        );
         let mut report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
         // Timing and memory are measurements of the run, not results.
@@ -214,4 +225,122 @@ fn truncated_contour_stream_is_an_error_naming_the_line() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("NDJSON line"), "{}", stderr(&o));
     assert!(!out.join("report.json").exists() && !out.join("mesh.stl").exists());
+}
+
+#[test]
+fn quiet_prints_nothing_and_the_summary_fits_one_screen() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = testdata();
+    let quiet = tmp.path().join("quiet");
+    let q = bskin(&[
+        "run",
+        dir.to_str().unwrap(),
+        "-o",
+        quiet.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(q.status.success(), "{}", stderr(&q));
+    assert!(q.stderr.is_empty(), "-q printed: {}", stderr(&q));
+    assert!(q.stdout.is_empty());
+    assert!(quiet.join("report.json").exists());
+
+    let loud = tmp.path().join("loud");
+    let o = bskin(&[
+        "run",
+        dir.to_str().unwrap(),
+        "-o",
+        loud.to_str().unwrap(),
+        "--formats",
+        "stl,ply",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+    let e = stderr(&o);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(loud.join("report.json")).unwrap()).unwrap();
+    assert!(e.lines().count() <= 12, "{e}");
+    for want in [
+        format!("{} surfaces", report["surfaces_total"]),
+        format!("{} control points", report["control_points_total"]),
+        format!(
+            "max error {:.4} mm",
+            report["max_error_mm"].as_f64().unwrap()
+        ),
+        "tolerance 0.5 mm met".to_string(),
+        "coordinates LPS mm".to_string(),
+        "mesh.stl (".to_string(),
+        "mesh.ply (".to_string(),
+        "report.json".to_string(),
+        loud.display().to_string(),
+    ] {
+        assert!(e.contains(&want), "summary lacks {want:?}:\n{e}");
+    }
+    assert!(!e.contains("surfaces.step"), "{e}");
+}
+
+#[test]
+fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("ras");
+    let o = bskin(&[
+        "run",
+        testdata().to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--ras",
+        "--formats",
+        "obj",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("coordinates RAS mm"), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["coordinates"], "RAS");
+    assert_eq!(report["version"], 2);
+    let files: Vec<&str> = report["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(files, ["mesh.obj"]);
+    assert!(!out.join("mesh.stl").exists());
+    let spacing = &report["input"]["slice_spacing_mm"];
+    assert!(
+        (spacing["mean"].as_f64().unwrap() - 1.5).abs() < 1e-9,
+        "{spacing}"
+    );
+
+    let o = bskin(&[
+        "run",
+        testdata().to_str().unwrap(),
+        "-o",
+        tmp.path().join("x").to_str().unwrap(),
+        "--formats",
+        "stl,vrml",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vrml") && stderr(&o).contains("obj, ply"));
+}
+
+#[test]
+fn piped_contours_report_the_threshold_they_were_made_with() {
+    let c = bskin(&[
+        "contours",
+        testdata().to_str().unwrap(),
+        "-q",
+        "--threshold",
+        "250",
+    ]);
+    assert!(c.status.success(), "{}", stderr(&c));
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("piped");
+    let o = bskin_with_stdin(&["run", "-", "-o", out.to_str().unwrap(), "-q"], &c.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["input"]["threshold"],
+        serde_json::json!({"above": 250.0})
+    );
 }

@@ -26,6 +26,9 @@ pub struct CadMeta {
     pub file_name: String,
     /// Free text describing the content, e.g. the DICOM series.
     pub description: String,
+    /// Patient coordinate system of the geometry, "LPS" (DICOM) or "RAS"; only recorded
+    /// (the surfaces are given in it).
+    pub coordinates: &'static str,
     /// Producing system, e.g. "bskin 0.1.0".
     pub system: String,
     /// ISO 8601 date and time; [`FIXED_TIMESTAMP`] by default so output is reproducible.
@@ -37,6 +40,7 @@ impl Default for CadMeta {
         CadMeta {
             file_name: String::new(),
             description: "bskin B-spline surfaces".into(),
+            coordinates: "LPS",
             system: format!("bskin {}", env!("CARGO_PKG_VERSION")),
             timestamp: FIXED_TIMESTAMP.into(),
         }

@@ -39,9 +39,10 @@ pub fn write_iges<W: Write>(
 
     let start = wrap_text(
         &format!(
-            "{}; {} bicubic B-spline surface(s), mm",
+            "{}; {} bicubic B-spline surface(s), patient {} mm",
             meta.description,
-            surfaces.len()
+            surfaces.len(),
+            meta.coordinates
         ),
         G_WIDTH,
     );

@@ -1,11 +1,15 @@
-//! Formats read and written: contour NDJSON, STL, STEP, IGES, report and sample JSON, and
+//! Formats read and written: contour NDJSON, STL, OBJ, PLY, STEP, IGES, report and sample JSON, and
 //! atomic (write-then-rename) output files.
 
 pub mod atomic;
 pub mod cad;
 pub mod iges;
+pub mod indexed;
 pub mod listing;
+pub mod meshes;
 pub mod ndjson;
+pub mod obj;
+pub mod ply;
 pub mod report;
 pub mod samples;
 pub mod step;

@@ -33,6 +33,15 @@ pub enum ThresholdRecord {
     Range([f64; 2]),
 }
 
+impl From<Threshold> for ThresholdRecord {
+    fn from(t: Threshold) -> Self {
+        match t {
+            Threshold::Above(t) => ThresholdRecord::Above(t),
+            Threshold::Range(lo, hi) => ThresholdRecord::Range([lo, hi]),
+        }
+    }
+}
+
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
 pub struct SeriesRecord {
     pub format: String,
@@ -93,10 +102,7 @@ impl SeriesRecord {
             version: VERSION,
             series: series.clone(),
             slices: series.slices,
-            threshold: Some(match opts.threshold {
-                Threshold::Above(t) => ThresholdRecord::Above(t),
-                Threshold::Range(lo, hi) => ThresholdRecord::Range([lo, hi]),
-            }),
+            threshold: Some(opts.threshold.into()),
             min_area_mm2: Some(opts.min_area_mm2),
             fill_holes: Some(opts.fill_holes),
             compress_tol_mm: Some(opts.compress_tol_mm),

@@ -1,14 +1,17 @@
-//! `report.json`, version 1: what a `bskin run` read, made and measured. Documented field by
+//! `report.json`, version 2: what a `bskin run` read, made and measured. Documented field by
 //! field in the README. Floating-point values are as computed (shortest round-trip form), so
 //! the same input gives the same bytes, except for the timing and memory fields.
 
 use serde::Serialize;
 
+use crate::io::ndjson::ThresholdRecord;
 use crate::section::SeriesSummary;
 use crate::stages::StageStats;
 
 pub const FORMAT: &str = "bskin-report";
-pub const VERSION: u32 = 1;
+/// 2: `input.slice_spacing_mm` added; `input.threshold` an object (was Rust debug text);
+/// `coordinates` follows `--ras`.
+pub const VERSION: u32 = 2;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -47,10 +50,22 @@ pub struct InputReport {
     /// Contour points before and after polygon compression.
     pub points_raw: usize,
     pub points_compressed: usize,
-    pub threshold: String,
+    /// Distance between consecutive slices along their normal (mm); `None` (null) for a single
+    /// slice.
+    pub slice_spacing_mm: Option<SliceSpacing>,
+    /// `{"above": HU}` or `{"range": [lo, hi]}`: the segmentation of the images, or, for
+    /// contours read from NDJSON, the one its header records (null when it records none).
+    pub threshold: Option<ThresholdRecord>,
     pub min_area_mm2: f64,
     pub fill_holes: bool,
     pub compress_tol_mm: f64,
+}
+
+#[derive(Serialize, Debug, Clone, Copy, PartialEq)]
+pub struct SliceSpacing {
+    pub min: f64,
+    pub mean: f64,
+    pub max: f64,
 }
 
 #[derive(Serialize, Debug, Clone)]
@@ -92,6 +107,98 @@ pub struct Timings {
     pub wall_s: f64,
     /// Time each stage spent working (not waiting on its channels).
     pub stages: Vec<StageStats>,
+}
+
+/// Warnings listed in the human summary; the rest are counted (all are in report.json).
+const SUMMARY_WARNINGS: usize = 5;
+
+impl Report {
+    /// The human summary `bskin run` prints on stderr: a few lines whatever the number of
+    /// surfaces (input, surfaces and their fit, coordinates, time and memory, files written
+    /// with their sizes, the first warnings). `dir` is the output directory as shown.
+    pub fn summary(&self, dir: &str) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let i = &self.input;
+        let spacing = match i.slice_spacing_mm {
+            Some(sp) if (sp.max - sp.min) <= 1e-3 * sp.max => format!(", {:.3} mm apart", sp.mean),
+            Some(sp) => format!(", {:.3}–{:.3} mm apart", sp.min, sp.max),
+            None => String::new(),
+        };
+        let _ = writeln!(
+            s,
+            "bskin: input: {} slices{spacing}, {} contours ({} holes), {} points after compression ({} before)",
+            i.slices, i.contours, i.holes, i.points_compressed, i.points_raw
+        );
+        let worst = self
+            .surfaces
+            .iter()
+            .max_by(|a, b| a.max_error_mm.total_cmp(&b.max_error_mm));
+        let holes = self.surfaces.iter().filter(|x| x.kind == "hole").count();
+        let _ = writeln!(
+            s,
+            "bskin: {} surfaces ({holes} hole walls), {} control points for {} input points (reduction {:.1}×)",
+            self.surfaces_total,
+            self.control_points_total,
+            self.input_points_total,
+            self.reduction_ratio
+        );
+        let unmet = self.surfaces.iter().filter(|x| !x.tolerance_met).count();
+        let _ = writeln!(
+            s,
+            "bskin: max error {:.4} mm{} (true distance), tolerance {} mm {}",
+            self.max_error_mm,
+            worst.map_or(String::new(), |w| format!(" on surface {}", w.id)),
+            self.tolerance_mm,
+            if self.tolerance_met {
+                "met by every surface".to_string()
+            } else {
+                format!("NOT met by {unmet} surface(s)")
+            }
+        );
+        let triangles: usize = self.surfaces.iter().map(|x| x.triangles).sum();
+        let _ = writeln!(
+            s,
+            "bskin: {triangles} triangles, coordinates {} {}; {:.2} s{}",
+            self.coordinates,
+            self.units,
+            self.timings.wall_s,
+            self.peak_rss_mb
+                .map_or(String::new(), |m| format!(", peak memory {m:.0} MB"))
+        );
+        let mut files: Vec<String> = self
+            .files
+            .iter()
+            .map(|f| format!("{} ({})", f.name, human_bytes(f.bytes)))
+            .collect();
+        files.push("report.json".into());
+        let _ = writeln!(s, "bskin: wrote {} in {dir}", files.join(", "));
+        for w in self.warnings.iter().take(SUMMARY_WARNINGS) {
+            let _ = writeln!(s, "bskin: warning: {w}");
+        }
+        if self.warnings.len() > SUMMARY_WARNINGS {
+            let _ = writeln!(
+                s,
+                "bskin: … and {} more warning(s) in report.json",
+                self.warnings.len() - SUMMARY_WARNINGS
+            );
+        }
+        s
+    }
+}
+
+/// `1234` → "1.2 kB", decimal units.
+fn human_bytes(b: u64) -> String {
+    let b = b as f64;
+    if b < 1e3 {
+        format!("{b} B")
+    } else if b < 1e6 {
+        format!("{:.1} kB", b / 1e3)
+    } else if b < 1e9 {
+        format!("{:.1} MB", b / 1e6)
+    } else {
+        format!("{:.2} GB", b / 1e9)
+    }
 }
 
 /// Peak resident set size of this process so far (Linux: VmHWM), in MB.

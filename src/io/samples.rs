@@ -3,7 +3,8 @@
 //! `surfaces.igs` (scripts/check_cad.py).
 //!
 //! In: surfaces in region order (the order of the faces in the CAD files). Out: JSON
-//! `{"format": "bskin-samples", "version": 1, "units": "mm", "parameterisation": …,
+//! `{"format": "bskin-samples", "version": 1, "units": "mm", "coordinates": "LPS" | "RAS",
+//! "parameterisation": …,
 //! "surfaces": [{"index", "u_domain": [a, b], "v_domain": [c, d], "points": [[u, v, x, y, z], …]}]}`.
 //! (u, v) are bskin's parameters, which are also the CAD files' parameters (identity mapping:
 //! the writers keep bskin's knot values; see [`super::cad`]). The samples sit on a fixed grid
@@ -27,6 +28,7 @@ struct Samples {
     format: &'static str,
     version: u32,
     units: &'static str,
+    coordinates: &'static str,
     parameterisation: &'static str,
     surfaces: Vec<SurfaceSamples>,
 }
@@ -39,8 +41,13 @@ struct SurfaceSamples {
     points: Vec<[f64; 5]>,
 }
 
-/// Writes the samples of `surfaces`; see the module doc.
-pub fn write_samples<W: Write>(out: W, surfaces: &[&SkinnedSurface]) -> io::Result<()> {
+/// Writes the samples of `surfaces`, whose coordinates are in `coordinates` ("LPS" or "RAS");
+/// see the module doc.
+pub fn write_samples<W: Write>(
+    out: W,
+    surfaces: &[&SkinnedSurface],
+    coordinates: &'static str,
+) -> io::Result<()> {
     let surfaces = surfaces
         .iter()
         .enumerate()
@@ -69,6 +76,7 @@ pub fn write_samples<W: Write>(out: W, surfaces: &[&SkinnedSurface]) -> io::Resu
         format: FORMAT,
         version: VERSION,
         units: "mm",
+        coordinates,
         parameterisation: "identity: CAD (u, v) = bskin (u, v)",
         surfaces,
     };

@@ -128,8 +128,9 @@ impl<W: Write> StepOut<W> {
         self.line("ISO-10303-21;")?;
         self.line("HEADER;")?;
         self.line(&format!(
-            "FILE_DESCRIPTION(('{}'),'2;1');",
-            string(&meta.description)
+            "FILE_DESCRIPTION(('{}','units mm, patient {} coordinates'),'2;1');",
+            string(&meta.description),
+            string(meta.coordinates)
         ))?;
         self.line(&format!(
             "FILE_NAME('{}','{}',(''),(''),'{}','{}','');",

@@ -1,5 +1,7 @@
-//! Stage 8: writers. Surfaces arrive in region order; each is tessellated and streamed into
-//! `mesh.stl`, and summarised for `report.json`. The CAD files (`surfaces.step`,
+//! Stage 8: writers. Surfaces arrive in region order; each is put into the output coordinate
+//! system ([`CoordinateSystem`]: DICOM LPS, or RAS), tessellated once and streamed into the
+//! meshes asked for ([`MeshWriters`]: `mesh.stl`, `mesh.obj`, `mesh.ply`), and summarised
+//! for `report.json`. The CAD files (`surfaces.step`,
 //! `surfaces.igs`) and the optional `samples.json` need every surface, so the surfaces are
 //! kept as they arrive and those files are written at the end, in region order. Which files
 //! are written is [`OutputOptions`]. Files are written under temporary names and renamed only
@@ -13,18 +15,18 @@ use crossbeam_channel::Receiver;
 use super::s7_skinning::Surface;
 use super::{Control, StageStats};
 use crate::bspline::SkinnedSurface;
-use crate::config::OutputOptions;
+use crate::config::{CoordinateSystem, OutputOptions};
 use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
+use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
-use crate::io::stl::StlWriter;
 use crate::mesh::tessellate;
 use crate::region::CurveOrigin;
 use crate::{Error, Result};
 
 pub const STAGE: &str = "write";
 
-pub const MESH_FILE: &str = "mesh.stl";
+pub use crate::io::meshes::{OBJ_FILE, PLY_FILE, STL_FILE as MESH_FILE};
 pub const STEP_FILE: &str = "surfaces.step";
 pub const IGES_FILE: &str = "surfaces.igs";
 pub const SAMPLES_FILE: &str = "samples.json";
@@ -95,43 +97,31 @@ pub fn run(
         },
         ..Default::default()
     };
-    let mesh_path = out_dir.join(MESH_FILE);
-    let err = output_error(&mesh_path);
-    let mut stl = if outputs.stl {
-        Some(
-            StlWriter::new(
-                AtomicFile::create(&mesh_path)?,
-                "bskin mesh, patient LPS mm",
-            )
-            .map_err(&err)?,
-        )
-    } else {
-        None
-    };
+    let system = outputs.coordinates;
+    let mut meshes = MeshWriters::create(out_dir, outputs)?;
     let keep = outputs.step || outputs.iges || outputs.samples;
     let mut kept: Vec<SkinnedSurface> = Vec::new();
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
-        let mut triangles = 0;
-        if let Some(stl) = stl.as_mut() {
-            let tris = tessellate(&s.surface, samples_per_span);
-            stl.write_triangles(&tris).map_err(&err)?;
-            triangles = tris.len();
+        let mut report = summarise(&s, tolerance, 0);
+        let surface = in_system(s.surface, system)?;
+        if meshes.any() {
+            let tris = tessellate(&surface, samples_per_span);
+            meshes.write_surface(report.id, &tris)?;
+            report.triangles = tris.len();
         }
-        written.surfaces.push(summarise(&s, tolerance, triangles));
+        written.surfaces.push(report);
         if keep {
-            kept.push(s.surface);
+            kept.push(surface);
         }
         written.stats.busy += t.elapsed();
         written.stats.items += 1;
     }
     ctl.check()?;
     let t = Instant::now();
-    if let Some(stl) = stl {
-        let file = stl.finish().map_err(&err)?;
-        file.commit()?;
-        written.files.push(file_report(&mesh_path)?);
+    for path in meshes.commit()? {
+        written.files.push(file_report(&path)?);
     }
     let refs: Vec<&SkinnedSurface> = kept.iter().collect();
     type Writer = fn(&mut AtomicFile, &[&SkinnedSurface], &CadMeta) -> std::io::Result<()>;
@@ -142,8 +132,8 @@ pub fn run(
         (outputs.iges, IGES_FILE, |f, s, m| {
             crate::io::iges::write_iges(f, s, m)
         }),
-        (outputs.samples, SAMPLES_FILE, |f, s, _| {
-            crate::io::samples::write_samples(f, s)
+        (outputs.samples, SAMPLES_FILE, |f, s, m| {
+            crate::io::samples::write_samples(f, s, m.coordinates)
         }),
     ];
     for (on, name, write) in writers {
@@ -154,6 +144,7 @@ pub fn run(
         let path = out_dir.join(name);
         let meta = CadMeta {
             file_name: name.to_string(),
+            coordinates: system.name(),
             ..Default::default()
         };
         let mut f = AtomicFile::create(&path)?;
@@ -163,6 +154,23 @@ pub fn run(
     }
     written.stats.busy += t.elapsed();
     Ok(written)
+}
+
+/// `s` (in DICOM patient LPS) in `system`. A B-spline maps to a B-spline of the mapped control
+/// points under any affine map, so mapping the control points maps every output (mesh, CAD
+/// files, samples) alike; RAS only changes signs, so it is exact.
+fn in_system(s: SkinnedSurface, system: CoordinateSystem) -> Result<SkinnedSurface> {
+    if system == CoordinateSystem::Lps {
+        return Ok(s);
+    }
+    let control = s.control().iter().map(|&p| system.from_lps(p)).collect();
+    SkinnedSurface::try_new(
+        s.u_knots().clone(),
+        s.v_knots().clone(),
+        control,
+        s.v_bar().to_vec(),
+    )
+    .map_err(|e| Error::Internal(format!("surface in {}: {e}", system.name())))
 }
 
 pub fn file_report(path: &Path) -> Result<FileReport> {
