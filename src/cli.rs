@@ -109,6 +109,10 @@ pub struct RunArgs {
     /// Distance-map raster cell for branching and capping (mm; default tolerance / 4, at most 0.1).
     #[arg(long)]
     pub cell: Option<f64>,
+    /// Chordal tolerance of mesh.stl as a fraction of the fitting tolerance: the triangles stay
+    /// within FRACTION × tolerance of the surfaces.
+    #[arg(long, value_name = "FRACTION", default_value_t = bskin::config::DEFAULT_CHORDAL)]
+    pub chordal: f64,
 }
 
 #[derive(Args, Debug)]

@@ -263,6 +263,16 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         }
         config.cell_mm = c;
     }
+    if !(args.chordal.is_finite() && args.chordal > 0.0) {
+        return Err(Error::usage(
+            "--chordal",
+            format!(
+                "must be a positive fraction of the tolerance, got {}",
+                args.chordal
+            ),
+        ));
+    }
+    config.mesh_chordal = args.chordal;
     let out = &args.output;
     std::fs::create_dir_all(out).map_err(|e| Error::Output {
         path: out.clone(),

@@ -15,6 +15,7 @@ use super::s3_correspondence::{Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::cap;
+use crate::geometry::conform::conform;
 use crate::geometry::polygon::Point;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{Section, SliceFrame};
@@ -91,6 +92,25 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
         .collect()
 }
 
+/// Distance within which a vertex of one loop of a problem counts as lying on another loop's
+/// edge, in distance-map cells (the loops' own tiling gap is below 0.01 cell).
+const CONFORM_EPS_CELLS: f64 = 1e-3;
+
+/// Make the loops of one problem share their vertices wherever they share boundary (see
+/// [`conform`]), so the surfaces meeting there are stitched without T-junctions.
+fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm: f64) {
+    let mut loops: Vec<&mut Vec<Point>> = curves
+        .filter_map(|c| match c {
+            Intermediate::Loop(l) => Some(l),
+            Intermediate::Point(_) => None,
+        })
+        .collect();
+    let n = conform(&mut loops, CONFORM_EPS_CELLS * cell_mm);
+    if n > 0 {
+        tracing::debug!("{n} T-junction vertices inserted");
+    }
+}
+
 pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
     let geometry = |e, what: String| Error::Geometry {
         stage: STAGE,
@@ -124,9 +144,11 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             for w in &r.warnings {
                 ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             }
+            let (mut lower, mut upper) = (r.lower, r.upper);
+            conform_loops(lower.iter_mut().chain(upper.iter_mut()), cell_mm);
             Ok(Solved::Branch {
-                lower: r.lower,
-                upper: r.upper,
+                lower,
+                upper,
                 t: r.t,
             })
         }
@@ -155,9 +177,11 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: {w}", section.index));
                     }
+                    let (mut outer, mut holes) = (caps.outer, caps.holes);
+                    conform_loops(std::iter::once(&mut outer).chain(holes.iter_mut()), cell_mm);
                     Ok(Solved::Cap {
-                        outer: Some(caps.outer),
-                        holes: caps.holes,
+                        outer: Some(outer),
+                        holes,
                     })
                 }
                 None => {

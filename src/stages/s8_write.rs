@@ -84,7 +84,7 @@ pub fn run(
     input: Receiver<Surface>,
     out_dir: &Path,
     tolerance: f64,
-    samples_per_span: usize,
+    chordal_mm: f64,
     outputs: &OutputOptions,
     ctl: &Control,
 ) -> Result<Written> {
@@ -115,7 +115,12 @@ pub fn run(
         let t = Instant::now();
         let mut triangles = 0;
         if let Some(stl) = stl.as_mut() {
-            let tris = tessellate(&s.surface, samples_per_span);
+            let curves = &s.region.curves;
+            let (bottom, top) = match (curves.first(), curves.last()) {
+                (Some(b), Some(t)) => (&b.points, &t.points),
+                _ => return Err(Error::Internal("region without curves".into())),
+            };
+            let tris = tessellate(&s.surface, bottom, top, chordal_mm);
             stl.write_triangles(&tris).map_err(&err)?;
             triangles = tris.len();
         }
