@@ -250,3 +250,77 @@ pub fn normal(t: &Triangle) -> [f64; 3] {
         u[0] * v[1] - u[1] * v[0],
     ]
 }
+
+/// Triangles closing what the end loops of one problem leave open on their plane.
+///
+/// `ends`: every region end of one branching or cap problem, as `(loop, top)`: `top` when it
+/// is the region's last curve (its patch uses each loop edge against the loop's direction),
+/// else its first (along it). Where the loops tile the plane exactly, every directed edge is
+/// matched by its reverse and nothing is returned. The distance-map loops sometimes leave a
+/// sliver uncovered (a gap of a few hundredths of a cell at a junction of three loops): the
+/// unmatched edges then form small closed cycles, and each is closed with a fan of flat
+/// triangles using its edges in the opposite direction. Deterministic: cycles are walked in
+/// the order of the loops' points.
+pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
+    use std::collections::{BTreeMap, HashMap};
+    type Key = [u64; 3];
+    let key = |p: &P3| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+    // Balance of each directed edge: uses minus uses of its reverse.
+    let mut balance: HashMap<(Key, Key), i64> = HashMap::new();
+    let mut order: Vec<(P3, P3)> = Vec::new();
+    for (l, top) in ends {
+        let l = dedup_loop(l);
+        if l.len() < 2 {
+            continue;
+        }
+        for i in 0..l.len() {
+            let (a, b) = (l[i], l[(i + 1) % l.len()]);
+            let (a, b) = if *top { (b, a) } else { (a, b) };
+            *balance.entry((key(&a), key(&b))).or_default() += 1;
+            *balance.entry((key(&b), key(&a))).or_default() -= 1;
+            order.push((a, b));
+        }
+    }
+    // Seal edges: the reverse of every edge with a positive balance, as many times.
+    let mut out_edges: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    let mut points: Vec<P3> = Vec::new();
+    let mut index: HashMap<Key, usize> = HashMap::new();
+    let mut id = |p: P3, points: &mut Vec<P3>| {
+        *index.entry(key(&p)).or_insert_with(|| {
+            points.push(p);
+            points.len() - 1
+        })
+    };
+    for (a, b) in order {
+        let bal = balance.get_mut(&(key(&a), key(&b))).expect("edge counted");
+        while *bal > 0 {
+            *bal -= 1;
+            let (ia, ib) = (id(a, &mut points), id(b, &mut points));
+            out_edges.entry(ib).or_default().push(ia);
+        }
+    }
+    let mut tris = Vec::new();
+    while let Some((&start, _)) = out_edges.iter().find(|(_, v)| !v.is_empty()) {
+        // Walk one closed cycle of seal edges (every vertex is balanced).
+        let mut cycle = vec![start];
+        let mut at = start;
+        loop {
+            let Some(next) = out_edges.get_mut(&at).and_then(|v| (!v.is_empty()).then(|| v.remove(0)))
+            else {
+                break;
+            };
+            if next == start {
+                break;
+            }
+            cycle.push(next);
+            at = next;
+        }
+        for w in 1..cycle.len().saturating_sub(1) {
+            let t = [points[cycle[0]], points[cycle[w]], points[cycle[w + 1]]];
+            if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
+                tris.push(t);
+            }
+        }
+    }
+    tris
+}

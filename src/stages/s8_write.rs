@@ -122,7 +122,8 @@ pub fn run(
             };
             let tris = tessellate(&s.surface, bottom, top, chordal_mm);
             stl.write_triangles(&tris).map_err(&err)?;
-            triangles = tris.len();
+            stl.write_triangles(&s.region.seal).map_err(&err)?;
+            triangles = tris.len() + s.region.seal.len();
         }
         written.surfaces.push(summarise(&s, tolerance, triangles));
         if keep {
