@@ -155,6 +155,9 @@ pub struct PhantomArgs {
     /// Random seed (noise and UIDs).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Also write the shape's ground truth (its volume in mm³) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {
