@@ -57,7 +57,15 @@ pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64
             push([a, c, d]);
         }
     }
-    zip_end(s, &us, vs[last], &top, &grid[grid.len() - 1], true, &mut push);
+    zip_end(
+        s,
+        &us,
+        vs[last],
+        &top,
+        &grid[grid.len() - 1],
+        true,
+        &mut push,
+    );
     tris
 }
 
@@ -152,7 +160,11 @@ fn zip_end(
         }
         let prev = t[i - 1];
         let step = (raw - prev).rem_euclid(period);
-        let next = if step < 0.5 * period { prev + step } else { prev };
+        let next = if step < 0.5 * period {
+            prev + step
+        } else {
+            prev
+        };
         t.push(next.min(t[0] + period));
     }
     t.push(t[0] + period);
@@ -304,11 +316,10 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
         // Walk one closed cycle of seal edges (every vertex is balanced).
         let mut cycle = vec![start];
         let mut at = start;
-        loop {
-            let Some(next) = out_edges.get_mut(&at).and_then(|v| (!v.is_empty()).then(|| v.remove(0)))
-            else {
-                break;
-            };
+        while let Some(next) = out_edges
+            .get_mut(&at)
+            .and_then(|v| (!v.is_empty()).then(|| v.remove(0)))
+        {
             if next == start {
                 break;
             }

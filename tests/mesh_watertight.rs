@@ -117,7 +117,10 @@ fn check(shape: &str, volume_tol: f64) -> f64 {
     );
     assert!(r.triangles > 1000, "{shape}: {r:?}");
     assert_eq!(r.not_two, 0, "{shape}: edges not used exactly twice");
-    assert_eq!(r.same_direction, 0, "{shape}: edges used twice the same way");
+    assert_eq!(
+        r.same_direction, 0,
+        "{shape}: edges used twice the same way"
+    );
     assert!(r.volume > 0.0, "{shape}: normals point inwards");
     assert!(rel.abs() < volume_tol, "{shape}: volume off by {rel:+.4}");
     rel

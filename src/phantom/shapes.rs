@@ -129,11 +129,9 @@ impl Shape {
         match self {
             Shape::TorusStanding => Some(2.0 * PI * PI * 26.0 * 8.0 * 8.0),
             Shape::TorusFlat => Some(2.0 * PI * PI * 26.0 * 9.0 * 9.0),
-            Shape::Blobs => Some(
-                4.0 / 3.0
-                    * PI
-                    * (12.0 * 9.0 * 14.0 + 13.0 * 10.0 * 10.0 + 9.0 * 8.0 * 10.0),
-            ),
+            Shape::Blobs => {
+                Some(4.0 / 3.0 * PI * (12.0 * 9.0 * 14.0 + 13.0 * 10.0 * 10.0 + 9.0 * 8.0 * 10.0))
+            }
             _ => None,
         }
     }

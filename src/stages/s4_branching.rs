@@ -309,10 +309,8 @@ impl Assembler {
                         .into_iter()
                         .map(|(k, hole, c)| (k, hole, lift_curve(&section.frame, &c, dz, hole)))
                         .collect();
-                    let loops: Vec<(&[[f64; 3]], bool)> = lifted
-                        .iter()
-                        .map(|(_, _, c)| (c.as_slice(), top))
-                        .collect();
+                    let loops: Vec<(&[[f64; 3]], bool)> =
+                        lifted.iter().map(|(_, _, c)| (c.as_slice(), top)).collect();
                     let mut seal = Some(seal(&loops));
                     for (k, hole, points) in lifted {
                         let end = RegionCurve { points, origin };
