@@ -313,25 +313,109 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
     }
     let mut tris = Vec::new();
     while let Some((&start, _)) = out_edges.iter().find(|(_, v)| !v.is_empty()) {
-        // Walk one closed cycle of seal edges (every vertex is balanced).
-        let mut cycle = vec![start];
-        let mut at = start;
-        while let Some(next) = out_edges
-            .get_mut(&at)
-            .and_then(|v| (!v.is_empty()).then(|| v.remove(0)))
-        {
-            if next == start {
-                break;
-            }
-            cycle.push(next);
-            at = next;
-        }
-        for w in 1..cycle.len().saturating_sub(1) {
-            let t = [points[cycle[0]], points[cycle[w]], points[cycle[w + 1]]];
-            if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
-                tris.push(t);
+        // Walk the seal edges from `start` (every vertex is balanced); each time the walk
+        // comes back to a vertex on its path, that stretch is a simple cycle: triangulate it.
+        let mut path = vec![start];
+        let mut on_path: HashMap<usize, usize> = HashMap::from([(start, 0)]);
+        while let Some(next) = path.last().and_then(|at| {
+            out_edges
+                .get_mut(at)
+                .and_then(|v| (!v.is_empty()).then(|| v.remove(0)))
+        }) {
+            if let Some(&p) = on_path.get(&next) {
+                let cycle: Vec<P3> = path[p..].iter().map(|&k| points[k]).collect();
+                for &k in &path[p + 1..] {
+                    on_path.remove(&k);
+                }
+                path.truncate(p + 1);
+                if cycle.len() > 8 {
+                    tracing::debug!("seal: a cycle of {} edges", cycle.len());
+                }
+                tris.extend(triangulate(&cycle));
+            } else {
+                on_path.insert(next, path.len());
+                path.push(next);
             }
         }
     }
     tris
+}
+
+/// Triangles of a simple closed polygon lying in a plane, in its own orientation: ear clipping
+/// in the plane of its Newell normal; where no proper ear is left (collinear points: a
+/// T-junction's zero-area sliver), the most convex corner goes.
+fn triangulate(poly: &[P3]) -> Vec<Triangle> {
+    let n = poly.len();
+    let mut out = Vec::with_capacity(n.saturating_sub(2));
+    if n < 3 {
+        return out;
+    }
+    let mut nrm = [0.0; 3];
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    // In-plane axes with e1 × e2 along the normal: the polygon is counter-clockwise in them.
+    let len = norm(nrm).max(1e-300);
+    let nz = [nrm[0] / len, nrm[1] / len, nrm[2] / len];
+    let helper = if nz[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let e1 = {
+        let c = cross(&helper, &nz);
+        let l = norm(c);
+        [c[0] / l, c[1] / l, c[2] / l]
+    };
+    let e2 = cross(&nz, &e1);
+    let q: Vec<[f64; 2]> = poly.iter().map(|p| [dot(p, &e1), dot(p, &e2)]).collect();
+    let turn = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let mut idx: Vec<usize> = (0..n).collect();
+    while idx.len() > 3 {
+        let m = idx.len();
+        let corner = |k: usize| (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
+        let is_ear = |k: usize| {
+            let (a, b, c) = corner(k);
+            turn(q[a], q[b], q[c]) > 0.0
+                && idx.iter().all(|&j| {
+                    j == a
+                        || j == b
+                        || j == c
+                        || q[j] == q[a]
+                        || q[j] == q[b]
+                        || q[j] == q[c]
+                        || !(turn(q[a], q[b], q[j]) >= 0.0
+                            && turn(q[b], q[c], q[j]) >= 0.0
+                            && turn(q[c], q[a], q[j]) >= 0.0)
+                })
+        };
+        let k = (0..m).find(|&k| is_ear(k)).unwrap_or_else(|| {
+            (0..m)
+                .max_by(|&x, &y| {
+                    let (a, b, c) = corner(x);
+                    let (d, e, f) = corner(y);
+                    turn(q[a], q[b], q[c]).total_cmp(&turn(q[d], q[e], q[f]))
+                })
+                .unwrap_or(0)
+        });
+        let (a, b, c) = corner(k);
+        out.push([poly[a], poly[b], poly[c]]);
+        idx.remove(k);
+    }
+    out.push([poly[idx[0]], poly[idx[1]], poly[idx[2]]]);
+    out.retain(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0]);
+    out
+}
+
+fn cross(a: &P3, b: &P3) -> P3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }

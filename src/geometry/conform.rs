@@ -97,9 +97,132 @@ pub fn conform(loops: &mut [&mut Vec<Point>], eps: f64) -> usize {
     inserted
 }
 
+/// Snap vertices closer than `eps` to one another (within a loop or across the loops) onto
+/// the first of them in loop order, then drop consecutive repeats; a loop that would keep
+/// fewer than three points keeps its own. Near-duplicates (a few 1e-5 mm apart, from the
+/// distance-map contouring) otherwise make a tiny edge that two tilings share three times.
+/// Returns the number of points moved.
+pub fn weld(loops: &mut [&mut Vec<Point>], eps: f64) -> usize {
+    let h = eps.max(1e-300);
+    let key = |p: Point| ((p[0] / h).floor() as i64, (p[1] / h).floor() as i64);
+    let mut reps: HashMap<(i64, i64), Vec<Point>> = HashMap::new();
+    let mut moved = 0;
+    for l in loops.iter_mut() {
+        let mut out: Vec<Point> = Vec::with_capacity(l.len());
+        let mut moved_here = 0;
+        for &p in l.iter() {
+            let (kx, ky) = key(p);
+            let mut found = None;
+            'search: for dx in -1..=1 {
+                for dy in -1..=1 {
+                    if let Some(v) = reps.get(&(kx + dx, ky + dy)) {
+                        if let Some(&q) = v.iter().find(|q| (q[0] - p[0]).hypot(q[1] - p[1]) <= eps)
+                        {
+                            found = Some(q);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+            let q = match found {
+                Some(q) => {
+                    moved_here += (q != p) as usize;
+                    q
+                }
+                None => {
+                    reps.entry((kx, ky)).or_default().push(p);
+                    p
+                }
+            };
+            if out.last() != Some(&q) {
+                out.push(q);
+            }
+        }
+        while out.len() > 1 && out.first() == out.last() {
+            out.pop();
+        }
+        if out.len() >= 3 {
+            **l = out;
+            moved += moved_here;
+        }
+    }
+    moved
+}
+
+/// The loop without zero-area spikes (a vertex whose two neighbours are the same point: the
+/// loop runs out along a chain and back, e.g. a dangling branch of a cap's ridge) and without
+/// consecutive repeated points. The enclosed area is unchanged; loops of one problem that
+/// share such a chain drop it together (it is removed wherever it occurs). A loop that would
+/// keep fewer than three points is left as it is. Returns the number of points removed.
+pub fn remove_spikes(l: &mut Vec<Point>) -> usize {
+    let before = l.len();
+    let mut out: Vec<Point> = Vec::with_capacity(l.len());
+    for &p in l.iter() {
+        if out.last() == Some(&p) {
+            continue;
+        }
+        if out.len() >= 2 && out[out.len() - 2] == p {
+            out.pop();
+            continue;
+        }
+        out.push(p);
+    }
+    // Across the wrap-around.
+    loop {
+        let n = out.len();
+        if n < 3 {
+            return 0;
+        }
+        if out[0] == out[n - 1] {
+            out.pop();
+        } else if out[n - 2] == out[0] {
+            out.truncate(n - 1);
+            out.pop();
+        } else if out[n - 1] == out[1] {
+            out.pop();
+            out.remove(0);
+        } else {
+            break;
+        }
+    }
+    if out.len() < 3 {
+        return 0;
+    }
+    let removed = before - out.len();
+    *l = out;
+    removed
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn near_duplicates_weld_onto_the_first() {
+        let mut a = vec![[0.0, 0.0], [1.0, 0.0], [1.0 + 1e-7, 0.0], [1.0, 1.0]];
+        let mut b = vec![[1.0 - 1e-7, 1e-8], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0]];
+        assert_eq!(weld(&mut [&mut a, &mut b], 1e-6), 2);
+        assert_eq!(a, vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]);
+        assert_eq!(b[0], [1.0, 0.0]);
+    }
+
+    #[test]
+    fn spikes_go_area_stays() {
+        let mut l = vec![
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [3.0, 0.5],
+            [2.0, 0.0],
+            [2.0, 2.0],
+            [0.0, 2.0],
+            [-1.0, 2.5],
+            [-2.0, 3.0],
+            [-1.0, 2.5],
+            [0.0, 2.0],
+        ];
+        assert_eq!(remove_spikes(&mut l), 6);
+        assert_eq!(l, vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]);
+    }
 
     #[test]
     fn t_junction_is_filled_and_shared_vertices_untouched() {

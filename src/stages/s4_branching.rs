@@ -15,7 +15,7 @@ use super::s3_correspondence::{Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::cap;
-use crate::geometry::conform::conform;
+use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::polygon::Point;
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
@@ -93,10 +93,10 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
         .collect()
 }
 
-/// Distance within which a vertex of one loop of a problem counts as lying on another loop's
-/// edge, in distance-map cells (the loops' own tiling gap is below 0.01 cell; the vertex moves
-/// the loop by at most this).
-const CONFORM_EPS_CELLS: f64 = 0.02;
+/// Distance within which two vertices of a problem's loops are one, and a vertex of one loop
+/// counts as lying on another loop's edge, in distance-map cells. Small: on the skull, 0.02
+/// cell made more tiny shared edges than it removed; gaps wider than this are sealed.
+const CONFORM_EPS_CELLS: f64 = 1e-3;
 
 /// Make the loops of one problem share their vertices wherever they share boundary (see
 /// [`conform`]), so the surfaces meeting there are stitched without T-junctions.
@@ -107,7 +107,15 @@ fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm
             Intermediate::Point(_) => None,
         })
         .collect();
+    let welded = weld(&mut loops, CONFORM_EPS_CELLS * cell_mm);
+    if welded > 0 {
+        tracing::debug!("{welded} near-duplicate vertices welded");
+    }
     let n = conform(&mut loops, CONFORM_EPS_CELLS * cell_mm);
+    let spikes: usize = loops.iter_mut().map(|l| remove_spikes(l)).sum();
+    if spikes > 0 {
+        tracing::debug!("{spikes} spike points removed");
+    }
     if n > 0 {
         tracing::debug!("{n} T-junction vertices inserted");
     }
