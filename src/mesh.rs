@@ -268,11 +268,12 @@ pub fn normal(t: &Triangle) -> [f64; 3] {
 /// `ends`: every region end of one branching or cap problem, as `(loop, top)`: `top` when it
 /// is the region's last curve (its patch uses each loop edge against the loop's direction),
 /// else its first (along it). Where the loops tile the plane exactly, every directed edge is
-/// matched by its reverse and nothing is returned. The distance-map loops sometimes leave a
-/// sliver uncovered (a gap of a few hundredths of a cell at a junction of three loops): the
-/// unmatched edges then form small closed cycles, and each is closed with a fan of flat
-/// triangles using its edges in the opposite direction. Deterministic: cycles are walked in
-/// the order of the loops' points.
+/// matched by its reverse and nothing is returned. The distance-map loops sometimes leave part
+/// of the plane uncovered or covered twice (a sliver a few hundredths of a cell wide where
+/// three loops meet on the phantoms; gaps of up to a few hundred edges on the skull): the
+/// unmatched edges then form closed cycles, each split into simple cycles and closed with flat
+/// triangles (ear clipping) using its edges in the opposite direction. Deterministic: cycles
+/// are walked in the order of the loops' points.
 pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
     use std::collections::{BTreeMap, HashMap};
     type Key = [u64; 3];
