@@ -11,7 +11,8 @@ In: OUT_DIR holding report.json, surfaces.step, surfaces.igs and samples.json (t
     is the identity: the writers keep bskin's knots), lies within TOL mm of bskin's own point.
 Surfaces are matched to samples by file order; if a file's order differs, each sample set is
 matched to the surface that reproduces it best.
-mesh.stl is only described (trimesh: watertight, winding consistent, volume), never failed.
+mesh.stl is only described here (trimesh: watertight, winding consistent, volume); scripts/check_mesh.py
+checks it.
 Exit status 0 when all checks pass, 1 otherwise. Usage: check_cad.py OUT_DIR [--tol MM]
 """
 

@@ -114,6 +114,10 @@ pub struct RunArgs {
     /// Distance-map raster cell for branching and capping (mm; default tolerance / 4, at most 0.1).
     #[arg(long)]
     pub cell: Option<f64>,
+    /// Chordal tolerance of mesh.stl as a fraction of the fitting tolerance: the triangles stay
+    /// within FRACTION × tolerance of the surfaces.
+    #[arg(long, value_name = "FRACTION", default_value_t = bskin::config::DEFAULT_CHORDAL)]
+    pub chordal: f64,
 }
 
 #[derive(Args, Debug)]
@@ -156,6 +160,9 @@ pub struct PhantomArgs {
     /// Random seed (noise and UIDs).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Also write the shape's ground truth (its volume in mm³) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
 }
 
 fn parse_range(s: &str) -> Result<(f64, f64), String> {

@@ -29,6 +29,9 @@ pub struct ContoursConfig {
     pub pipeline: PipelineOptions,
 }
 
+/// Default chordal tolerance of the mesh, as a fraction of the fitting tolerance.
+pub const DEFAULT_CHORDAL: f64 = 0.1;
+
 /// Everything `bskin run` needs besides its input and output directory.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunConfig {
@@ -38,8 +41,9 @@ pub struct RunConfig {
     pub tolerance_mm: f64,
     /// Raster cell of the distance maps (branching and capping), mm.
     pub cell_mm: f64,
-    /// Mesh samples per knot span in u and per curve interval in v.
-    pub mesh_samples_per_span: usize,
+    /// Chordal tolerance of the mesh, as a fraction of `tolerance_mm`: the triangles stay
+    /// within `mesh_chordal * tolerance_mm` of the surfaces.
+    pub mesh_chordal: f64,
     /// Cap distance for a series of a single section (mm): half of it on each side.
     pub fallback_spacing_mm: f64,
     /// Which files the writer stage produces.
@@ -154,7 +158,7 @@ impl RunConfig {
             pipeline: PipelineOptions::default(),
             tolerance_mm,
             cell_mm: (tolerance_mm / 4.0).min(0.1),
-            mesh_samples_per_span: 4,
+            mesh_chordal: DEFAULT_CHORDAL,
             fallback_spacing_mm: 1.0,
             outputs: OutputOptions::default(),
         }

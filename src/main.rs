@@ -266,6 +266,16 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         }
         config.cell_mm = c;
     }
+    if !(args.chordal.is_finite() && args.chordal > 0.0) {
+        return Err(Error::usage(
+            "--chordal",
+            format!(
+                "must be a positive fraction of the tolerance, got {}",
+                args.chordal
+            ),
+        ));
+    }
+    config.mesh_chordal = args.chordal;
     let out = &args.output;
     std::fs::create_dir_all(out).map_err(|e| Error::Output {
         path: out.clone(),
@@ -402,6 +412,25 @@ fn make_phantom(args: PhantomArgs, quiet: bool) -> Result<()> {
     let volume = phantom::generate(&spec)?;
     let options = dicom::WriteOptions::for_phantom(&spec);
     let paths = dicom::write_ct_series(&args.output, &volume.slices, &options)?;
+    if let Some(path) = &args.truth {
+        let step = phantom::shapes::VOLUME_STEP_MM;
+        let (volume_mm3, method) = match shape.exact_volume() {
+            Some(v) => (v, "closed form".to_string()),
+            None => (
+                shape.volume(step),
+                format!("rays along z on a {step} mm grid, sphere tracing + bisection"),
+            ),
+        };
+        let json = serde_json::json!({
+            "shape": shape.name(),
+            "volume_mm3": volume_mm3,
+            "volume_method": method,
+        });
+        let mut f = bskin::io::atomic::AtomicFile::create(path)?;
+        f.write_all(format!("{json:#}\n").as_bytes())
+            .map_err(|e| Error::io(path, e))?;
+        f.commit()?;
+    }
     if !quiet {
         eprintln!(
             "bskin: wrote {} slices of {} to {}",

@@ -270,7 +270,7 @@ pub fn run_surfaces(
                 surfaces_rx,
                 out_dir,
                 config.tolerance_mm,
-                config.mesh_samples_per_span,
+                config.mesh_chordal * config.tolerance_mm,
                 &config.outputs,
                 ctl,
             ),

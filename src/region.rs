@@ -39,6 +39,9 @@ pub struct Region {
     /// The wall of a hole (a void inside the material) rather than an outer wall.
     pub hole: bool,
     pub curves: Vec<RegionCurve>,
+    /// Flat triangles closing slivers that the loops of a branching or cap problem this
+    /// region ends at leave uncovered (see [`crate::mesh::seal`]); written with its mesh.
+    pub seal: Vec<[[f64; 3]; 3]>,
 }
 
 impl Region {

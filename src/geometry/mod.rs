@@ -5,6 +5,7 @@
 pub mod alignment;
 pub mod branching;
 pub mod capping;
+pub mod conform;
 pub mod contours;
 pub mod distance_map;
 pub mod marching_squares;

@@ -15,7 +15,9 @@ use super::s3_correspondence::{Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::cap;
+use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::polygon::Point;
+use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{Section, SliceFrame};
 use crate::{Error, Result};
@@ -91,6 +93,34 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
         .collect()
 }
 
+/// Distance within which two vertices of a problem's loops are one, and a vertex of one loop
+/// counts as lying on another loop's edge, in distance-map cells. Small: on the skull, 0.02
+/// cell made more tiny shared edges than it removed; gaps wider than this are sealed.
+const CONFORM_EPS_CELLS: f64 = 1e-3;
+
+/// Make the loops of one problem share their vertices wherever they share boundary (see
+/// [`conform`]), so the surfaces meeting there are stitched without T-junctions.
+fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm: f64) {
+    let mut loops: Vec<&mut Vec<Point>> = curves
+        .filter_map(|c| match c {
+            Intermediate::Loop(l) => Some(l),
+            Intermediate::Point(_) => None,
+        })
+        .collect();
+    let welded = weld(&mut loops, CONFORM_EPS_CELLS * cell_mm);
+    if welded > 0 {
+        tracing::debug!("{welded} near-duplicate vertices welded");
+    }
+    let n = conform(&mut loops, CONFORM_EPS_CELLS * cell_mm);
+    let spikes: usize = loops.iter_mut().map(|l| remove_spikes(l)).sum();
+    if spikes > 0 {
+        tracing::debug!("{spikes} spike points removed");
+    }
+    if n > 0 {
+        tracing::debug!("{n} T-junction vertices inserted");
+    }
+}
+
 pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
     let geometry = |e, what: String| Error::Geometry {
         stage: STAGE,
@@ -124,9 +154,11 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             for w in &r.warnings {
                 ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             }
+            let (mut lower, mut upper) = (r.lower, r.upper);
+            conform_loops(lower.iter_mut().chain(upper.iter_mut()), cell_mm);
             Ok(Solved::Branch {
-                lower: r.lower,
-                upper: r.upper,
+                lower,
+                upper,
                 t: r.t,
             })
         }
@@ -155,9 +187,11 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: {w}", section.index));
                     }
+                    let (mut outer, mut holes) = (caps.outer, caps.holes);
+                    conform_loops(std::iter::once(&mut outer).chain(holes.iter_mut()), cell_mm);
                     Ok(Solved::Cap {
-                        outer: Some(caps.outer),
-                        holes: caps.holes,
+                        outer: Some(outer),
+                        holes,
                     })
                 }
                 None => {
@@ -228,25 +262,32 @@ impl Assembler {
                         below: lo.index,
                         above: up.index,
                     };
-                    for (&k, c) in lower.iter().zip(&il) {
+                    let below: Vec<Vec<[f64; 3]>> = il
+                        .iter()
+                        .map(|c| lift_curve(&lo.frame, c, dz, *hole))
+                        .collect();
+                    let above: Vec<Vec<[f64; 3]>> = iu
+                        .iter()
+                        .map(|c| lift_curve(&lo.frame, c, dz, *hole))
+                        .collect();
+                    let ends: Vec<(&[[f64; 3]], bool)> = below
+                        .iter()
+                        .map(|c| (c.as_slice(), true))
+                        .chain(above.iter().map(|c| (c.as_slice(), false)))
+                        .collect();
+                    let mut seal = Some(seal(&ends));
+                    for (&k, points) in lower.iter().zip(below) {
                         let mut r = self.take(k, lo)?;
-                        r.curves.push(RegionCurve {
-                            points: lift_curve(&lo.frame, c, dz, *hole),
-                            origin,
-                        });
+                        r.curves.push(RegionCurve { points, origin });
+                        r.seal.extend(seal.take().unwrap_or_default());
                         self.close(r, &mut closed);
                     }
-                    for (&k, c) in upper.iter().zip(&iu) {
+                    for (&k, points) in upper.iter().zip(above) {
                         next[k] = Some(Region {
                             id: 0,
                             hole: *hole,
-                            curves: vec![
-                                RegionCurve {
-                                    points: lift_curve(&lo.frame, c, dz, *hole),
-                                    origin,
-                                },
-                                contour_curve(up, k),
-                            ],
+                            curves: vec![RegionCurve { points, origin }, contour_curve(up, k)],
+                            seal: seal.take().unwrap_or_default(),
                         });
                     }
                 }
@@ -262,41 +303,37 @@ impl Assembler {
                         ends.push((*o, false, c));
                     }
                     ends.extend(holes.iter().zip(ch).map(|(&h, c)| (h, true, c)));
-                    match side {
-                        Side::Above => {
-                            let lo = t
-                                .lower
-                                .as_ref()
-                                .ok_or_else(|| Error::Internal("cap above nothing".into()))?;
-                            let origin = CurveOrigin::Cap { slice: lo.index };
-                            for (k, hole, c) in ends {
-                                let mut r = self.take(k, lo)?;
-                                r.curves.push(RegionCurve {
-                                    points: lift_curve(&lo.frame, &c, half, hole),
-                                    origin,
-                                });
-                                self.close(r, &mut closed);
-                            }
-                        }
-                        Side::Below => {
-                            let up = t
-                                .upper
-                                .as_ref()
-                                .ok_or_else(|| Error::Internal("cap below nothing".into()))?;
-                            let origin = CurveOrigin::Cap { slice: up.index };
-                            for (k, hole, c) in ends {
-                                next[k] = Some(Region {
-                                    id: 0,
-                                    hole,
-                                    curves: vec![
-                                        RegionCurve {
-                                            points: lift_curve(&up.frame, &c, -half, hole),
-                                            origin,
-                                        },
-                                        contour_curve(up, k),
-                                    ],
-                                });
-                            }
+                    let (section, dz) = match side {
+                        Side::Above => (t.lower.as_ref(), half),
+                        Side::Below => (t.upper.as_ref(), -half),
+                    };
+                    let section =
+                        section.ok_or_else(|| Error::Internal("cap without its section".into()))?;
+                    let origin = CurveOrigin::Cap {
+                        slice: section.index,
+                    };
+                    let top = matches!(side, Side::Above);
+                    let lifted: Vec<(usize, bool, Vec<[f64; 3]>)> = ends
+                        .into_iter()
+                        .map(|(k, hole, c)| (k, hole, lift_curve(&section.frame, &c, dz, hole)))
+                        .collect();
+                    let loops: Vec<(&[[f64; 3]], bool)> =
+                        lifted.iter().map(|(_, _, c)| (c.as_slice(), top)).collect();
+                    let mut seal = Some(seal(&loops));
+                    for (k, hole, points) in lifted {
+                        let end = RegionCurve { points, origin };
+                        if top {
+                            let mut r = self.take(k, section)?;
+                            r.curves.push(end);
+                            r.seal.extend(seal.take().unwrap_or_default());
+                            self.close(r, &mut closed);
+                        } else {
+                            next[k] = Some(Region {
+                                id: 0,
+                                hole,
+                                curves: vec![end, contour_curve(section, k)],
+                                seal: seal.take().unwrap_or_default(),
+                            });
                         }
                     }
                 }

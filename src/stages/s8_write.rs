@@ -86,7 +86,7 @@ pub fn run(
     input: Receiver<Surface>,
     out_dir: &Path,
     tolerance: f64,
-    samples_per_span: usize,
+    chordal_mm: f64,
     outputs: &OutputOptions,
     ctl: &Control,
 ) -> Result<Written> {
@@ -107,7 +107,18 @@ pub fn run(
         let mut report = summarise(&s, tolerance, 0);
         let surface = in_system(s.surface, system)?;
         if meshes.any() {
-            let tris = tessellate(&surface, samples_per_span);
+            let curves = &s.region.curves;
+            let (bottom, top) = match (curves.first(), curves.last()) {
+                (Some(b), Some(t)) => (&b.points, &t.points),
+                _ => return Err(Error::Internal("region without curves".into())),
+            };
+            // The end loops and seals are shared with neighbouring surfaces vertex for vertex;
+            // the mapping to the output system is a sign change, exact, so they stay shared.
+            let map = |pts: &[[f64; 3]]| -> Vec<[f64; 3]> {
+                pts.iter().map(|&p| system.from_lps(p)).collect()
+            };
+            let mut tris = tessellate(&surface, &map(bottom), &map(top), chordal_mm);
+            tris.extend(s.region.seal.iter().map(|t| t.map(|p| system.from_lps(p))));
             meshes.write_surface(report.id, &tris)?;
             report.triangles = tris.len();
         }

@@ -1,0 +1,163 @@
+//! `mesh::tessellate` and `mesh::seal` on their own: the triangles stay within the chordal
+//! tolerance of the surface, the end loops are in the mesh exactly and each of their edges is
+//! the mesh's only open edge there (used once, in the direction the neighbour needs), and the
+//! seal closes exactly what a tiling leaves open.
+
+use std::collections::HashMap;
+use std::f64::consts::PI;
+
+use bskin::bspline::{fit_common, skin, FitOptions};
+use bskin::mesh::{seal, tessellate, Triangle};
+
+type P3 = [f64; 3];
+
+/// A vase: circles of varying radius at z = 0, 6, 12, 18, and a cap point at z = 22.
+fn vase() -> (Vec<Vec<P3>>, bskin::bspline::SkinnedSurface) {
+    let radii = [10.0, 13.0, 9.0, 11.0];
+    let mut curves: Vec<Vec<P3>> = radii
+        .iter()
+        .enumerate()
+        .map(|(k, &r)| {
+            (0..160)
+                .map(|j| {
+                    let t = 2.0 * PI * j as f64 / 160.0;
+                    [r * t.cos(), r * t.sin(), 6.0 * k as f64]
+                })
+                .collect()
+        })
+        .collect();
+    curves.push(vec![[0.0, 0.0, 22.0]]);
+    let fit = fit_common(&curves, &FitOptions::new(0.05)).unwrap();
+    (curves, skin(&fit.curves).unwrap())
+}
+
+fn key(p: &P3) -> [u64; 3] {
+    [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
+}
+
+/// Directed edge uses minus uses of the reverse, per directed edge with a positive balance.
+fn open_edges(tris: &[Triangle]) -> Vec<([u64; 3], [u64; 3])> {
+    let mut bal: HashMap<([u64; 3], [u64; 3]), i64> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (key(&t[k]), key(&t[(k + 1) % 3]));
+            *bal.entry((a, b)).or_default() += 1;
+            *bal.entry((b, a)).or_default() -= 1;
+        }
+    }
+    let mut v: Vec<_> = bal
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(e, _)| e)
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn vase_is_within_the_chordal_tolerance_and_open_only_along_its_bottom_loop() {
+    let (curves, s) = vase();
+    let chordal = 0.02;
+    let tris = tessellate(&s, &curves[0], &curves[4], chordal);
+    // Open edges: exactly the bottom loop's, along its direction (the patch below it, if any,
+    // would use them against it).
+    let mut expected: Vec<_> = (0..curves[0].len())
+        .map(|i| {
+            (
+                key(&curves[0][i]),
+                key(&curves[0][(i + 1) % curves[0].len()]),
+            )
+        })
+        .collect();
+    expected.sort();
+    assert_eq!(open_edges(&tris), expected);
+    // Distance of the interior triangles' centres and edge midpoints to the surface (the band
+    // next to the bottom loop follows the loop, which is within the fit tolerance, not the
+    // chordal one).
+    let mut worst: f64 = 0.0;
+    for t in tris.iter().filter(|t| t.iter().all(|p| p[2] > 1e-9)) {
+        let c: P3 = std::array::from_fn(|d| (t[0][d] + t[1][d] + t[2][d]) / 3.0);
+        let m: P3 = std::array::from_fn(|d| 0.5 * (t[0][d] + t[1][d]));
+        for p in [c, m] {
+            worst = worst.max(s.closest_point(&p).0);
+        }
+    }
+    eprintln!(
+        "{} triangles, worst chord deviation {worst:.4} mm",
+        tris.len()
+    );
+    assert!(worst <= chordal, "chord deviation {worst} mm");
+    // Outward: positive enclosed volume once the bottom is closed by a fan.
+    let o = curves[0].iter().fold([0.0; 3], |a, p| {
+        std::array::from_fn(|d| a[d] + p[d] / 160.0)
+    });
+    let mut closed = tris.clone();
+    for i in 0..curves[0].len() {
+        closed.push([o, curves[0][(i + 1) % 160], curves[0][i]]);
+    }
+    assert!(open_edges(&closed).is_empty());
+    let vol: f64 = closed
+        .iter()
+        .map(|[p, q, r]| {
+            (p[0] * (q[1] * r[2] - q[2] * r[1]) - p[1] * (q[0] * r[2] - q[2] * r[0])
+                + p[2] * (q[0] * r[1] - q[1] * r[0]))
+                / 6.0
+        })
+        .sum();
+    assert!(vol > 0.0, "volume {vol}");
+    // A finer tolerance gives more triangles.
+    assert!(tessellate(&s, &curves[0], &curves[4], chordal / 4.0).len() > tris.len());
+}
+
+#[test]
+fn seal_closes_a_tiling_gap_and_nothing_else() {
+    let sq = |x0: f64, x1: f64| -> Vec<P3> {
+        vec![
+            [x0, 0.0, 1.0],
+            [x1, 0.0, 1.0],
+            [x1, 1.0, 1.0],
+            [x0, 1.0, 1.0],
+        ]
+    };
+    // One rectangle below, split in two above, with the split's end points on both sides.
+    let below = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.0, 1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let (l, r) = (sq(0.0, 1.0), sq(1.0, 2.0));
+    assert!(seal(&[(&below, true), (&l, false), (&r, false)]).is_empty());
+    // The right piece a little narrower: a sliver 1.9..2 uncovered above.
+    let r2 = sq(1.0, 1.9);
+    let below2 = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.9, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.0, 1.0, 1.0],
+        [1.9, 1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let ends: Vec<(&[P3], bool)> = vec![(&below2, true), (&l, false), (&r2, false)];
+    let s = seal(&ends);
+    assert_eq!(s.len(), 2);
+    let mut all: Vec<Triangle> = s.clone();
+    // Stand-in patches: each end loop's edges as the patch uses them, closed by an apex.
+    for (lp, top) in &ends {
+        let apex = [0.5, 0.5, if *top { 0.0 } else { 2.0 }];
+        for i in 0..lp.len() {
+            let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
+            all.push(if *top { [b, a, apex] } else { [a, b, apex] });
+        }
+    }
+    assert!(open_edges(&all).is_empty());
+    let area: f64 = s
+        .iter()
+        .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
+        .sum();
+    assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
+}
