@@ -33,40 +33,44 @@ const PROBES: usize = 5;
 /// (at v = v̄_last), each a closed loop in the direction of u or a single point, and the grid
 /// fine enough that the triangles stay within `chordal_mm` of the surface.
 pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64) -> Vec<Triangle> {
+    let mut tris = Vec::new();
+    tessellate_each(s, bottom, top, chordal_mm, |t| tris.push(t));
+    tris
+}
+
+/// [`tessellate`], handing each triangle to `emit` as it is made, row by row: only two rows
+/// of samples are held, so a long surface streams into a mesh file in bounded memory.
+pub fn tessellate_each(
+    s: &SkinnedSurface,
+    bottom: &[P3],
+    top: &[P3],
+    chordal_mm: f64,
+    mut emit: impl FnMut(Triangle),
+) {
     let (us, vs) = sample_params(s, chordal_mm);
     let (bottom, top) = (dedup_loop(bottom), dedup_loop(top));
     let nu = us.len();
     let last = vs.len() - 1;
-    // Interior rows only: rows 0 and `last` are the end loops.
-    let grid: Vec<Vec<P3>> = vs[1..last]
-        .iter()
-        .map(|&v| us.iter().map(|&u| s.eval(u, v)).collect())
-        .collect();
-    let mut tris = Vec::with_capacity(2 * nu * vs.len() + bottom.len() + top.len());
+    // Interior rows only (1..last): rows 0 and `last` are the end loops.
+    let row = |v: f64| -> Vec<P3> { us.iter().map(|&u| s.eval(u, v)).collect() };
     let mut push = |t: Triangle| {
         if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
-            tris.push(t);
+            emit(t);
         }
     };
-    zip_end(s, &us, vs[0], &bottom, &grid[0], false, &mut push);
-    for j in 0..grid.len() - 1 {
+    let mut lower = row(vs[1]);
+    zip_end(s, &us, vs[0], &bottom, &lower, false, &mut push);
+    for &v in &vs[2..last] {
+        let upper = row(v);
         for i in 0..nu {
             let i1 = (i + 1) % nu;
-            let (a, b, c, d) = (grid[j][i], grid[j][i1], grid[j + 1][i1], grid[j + 1][i]);
+            let (a, b, c, d) = (lower[i], lower[i1], upper[i1], upper[i]);
             push([a, b, c]);
             push([a, c, d]);
         }
+        lower = upper;
     }
-    zip_end(
-        s,
-        &us,
-        vs[last],
-        &top,
-        &grid[grid.len() - 1],
-        true,
-        &mut push,
-    );
-    tris
+    zip_end(s, &us, vs[last], &top, &lower, true, &mut push);
 }
 
 /// The u and v parameters of the grid: every u knot and every v̄_k, with as many samples in

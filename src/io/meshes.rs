@@ -90,9 +90,27 @@ impl MeshWriters {
 
     /// Surface `id`'s triangles into every open mesh file.
     pub fn write_surface(&mut self, id: usize, tris: &[Triangle]) -> Result<()> {
+        self.write_stl(tris)?;
+        self.write_indexed(id, tris)
+    }
+
+    /// Triangles into `mesh.stl`, which needs no more than that: a surface may come in any
+    /// number of calls, so it streams.
+    pub fn write_stl(&mut self, tris: &[Triangle]) -> Result<()> {
         if let Some((path, w)) = self.stl.as_mut() {
             w.write_triangles(tris).map_err(output_error(path))?;
         }
+        Ok(())
+    }
+
+    /// Whether `mesh.obj` or `mesh.ply` is open: they index a surface's shared vertices, so
+    /// they need its triangles at once ([`Self::write_indexed`]).
+    pub fn wants_whole_surfaces(&self) -> bool {
+        self.obj.is_some() || self.ply.is_some()
+    }
+
+    /// Surface `id`'s triangles, all of them, into `mesh.obj` and `mesh.ply`.
+    pub fn write_indexed(&mut self, id: usize, tris: &[Triangle]) -> Result<()> {
         if let Some((path, w)) = self.obj.as_mut() {
             w.write_surface(id, tris).map_err(output_error(path))?;
         }

@@ -20,7 +20,7 @@ use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
 use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
-use crate::mesh::tessellate;
+use crate::mesh::{tessellate_each, Triangle};
 use crate::region::CurveOrigin;
 use crate::{Error, Result};
 
@@ -117,10 +117,35 @@ pub fn run(
             let map = |pts: &[[f64; 3]]| -> Vec<[f64; 3]> {
                 pts.iter().map(|&p| system.from_lps(p)).collect()
             };
-            let mut tris = tessellate(&surface, &map(bottom), &map(top), chordal_mm);
-            tris.extend(s.region.seal.iter().map(|t| t.map(|p| system.from_lps(p))));
-            meshes.write_surface(report.id, &tris)?;
-            report.triangles = tris.len();
+            // STL in chunks as the rows are made; OBJ/PLY index the whole surface.
+            const CHUNK: usize = 4096;
+            let whole = meshes.wants_whole_surfaces();
+            let (mut chunk, mut all) = (Vec::with_capacity(CHUNK), Vec::new());
+            let mut failed: Option<Error> = None;
+            let mut count = 0;
+            let mut take = |t: Triangle| {
+                count += 1;
+                if whole {
+                    all.push(t);
+                }
+                chunk.push(t);
+                if chunk.len() == CHUNK {
+                    if failed.is_none() {
+                        failed = meshes.write_stl(&chunk).err();
+                    }
+                    chunk.clear();
+                }
+            };
+            tessellate_each(&surface, &map(bottom), &map(top), chordal_mm, &mut take);
+            for t in &s.region.seal {
+                take(t.map(|p| system.from_lps(p)));
+            }
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            meshes.write_stl(&chunk)?;
+            meshes.write_indexed(report.id, &all)?;
+            report.triangles = count;
         }
         written.surfaces.push(report);
         if keep {
