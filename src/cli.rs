@@ -118,6 +118,10 @@ pub struct RunArgs {
     /// within FRACTION × tolerance of the surfaces.
     #[arg(long, value_name = "FRACTION", default_value_t = bskin::config::DEFAULT_CHORDAL)]
     pub chordal: f64,
+    /// Most curves (slices) of one surface; a longer object is split into surfaces that share
+    /// the contour where they meet (bounded memory on long series)
+    #[arg(long, value_name = "N", default_value_t = bskin::config::DEFAULT_MAX_CURVES)]
+    pub max_curves: usize,
 }
 
 #[derive(Args, Debug)]

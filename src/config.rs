@@ -32,6 +32,9 @@ pub struct ContoursConfig {
 /// Default chordal tolerance of the mesh, as a fraction of the fitting tolerance.
 pub const DEFAULT_CHORDAL: f64 = 0.1;
 
+/// Default most curves of one surface: longer chains are split into segments.
+pub const DEFAULT_MAX_CURVES: usize = 128;
+
 /// Everything `bskin run` needs besides its input and output directory.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunConfig {
@@ -44,6 +47,10 @@ pub struct RunConfig {
     /// Chordal tolerance of the mesh, as a fraction of `tolerance_mm`: the triangles stay
     /// within `mesh_chordal * tolerance_mm` of the surfaces.
     pub mesh_chordal: f64,
+    /// Most curves of one surface: a longer chain of 1-to-1 links becomes several surfaces
+    /// sharing the contour where one ends and the next begins, so the memory a region holds
+    /// until it closes does not grow with the number of slices.
+    pub max_curves: usize,
     /// Cap distance for a series of a single section (mm): half of it on each side.
     pub fallback_spacing_mm: f64,
     /// Which files the writer stage produces.
@@ -159,6 +166,7 @@ impl RunConfig {
             tolerance_mm,
             cell_mm: (tolerance_mm / 4.0).min(0.1),
             mesh_chordal: DEFAULT_CHORDAL,
+            max_curves: DEFAULT_MAX_CURVES,
             fallback_spacing_mm: 1.0,
             outputs: OutputOptions::default(),
         }

@@ -276,6 +276,13 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         ));
     }
     config.mesh_chordal = args.chordal;
+    if args.max_curves < 2 {
+        return Err(Error::usage(
+            "--max-curves",
+            format!("must be at least 2, got {}", args.max_curves),
+        ));
+    }
+    config.max_curves = args.max_curves;
     let out = &args.output;
     std::fs::create_dir_all(out).map_err(|e| Error::Output {
         path: out.clone(),

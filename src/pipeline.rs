@@ -247,7 +247,13 @@ pub fn run_surfaces(
         let branching = scope.spawn(|| {
             cancel_on_error(
                 ctl,
-                s4_branching::run(transitions_rx, config.cell_mm, regions_tx, ctl),
+                s4_branching::run(
+                    transitions_rx,
+                    config.cell_mm,
+                    config.max_curves,
+                    regions_tx,
+                    ctl,
+                ),
             )
         });
         let alignment =

@@ -42,6 +42,9 @@ pub struct Region {
     /// Flat triangles closing slivers that the loops of a branching or cap problem this
     /// region ends at leave uncovered (see [`crate::mesh::seal`]); written with its mesh.
     pub seal: Vec<[[f64; 3]; 3]>,
+    /// The first curve is the contour where the previous segment of the same chain ended
+    /// (a long chain is split, see `RunConfig::max_curves`): its points count there.
+    pub joint_below: bool,
 }
 
 impl Region {
@@ -49,6 +52,7 @@ impl Region {
     pub fn input_points(&self) -> usize {
         self.curves
             .iter()
+            .skip(self.joint_below as usize)
             .filter(|c| matches!(c.origin, CurveOrigin::Contour { .. }))
             .map(|c| c.points.len())
             .sum()

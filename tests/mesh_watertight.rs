@@ -85,6 +85,11 @@ fn truth_volume(path: &Path) -> f64 {
 
 /// Generate `shape`, run it at the defaults, check the mesh; returns the volume error.
 fn check(shape: &str, volume_tol: f64) -> f64 {
+    check_with(shape, volume_tol, &[]).0
+}
+
+/// [`check`] with extra `run` options; also returns `report.json`.
+fn check_with(shape: &str, volume_tol: f64, extra: &[&str]) -> (f64, serde_json::Value) {
     let tmp = tempfile::tempdir().unwrap();
     let (series, out, truth) = (
         tmp.path().join("series"),
@@ -101,7 +106,14 @@ fn check(shape: &str, volume_tol: f64) -> f64 {
         "--truth",
         &s(&truth),
     ]);
-    bskin(&["-q", "run", &s(&series), "-o", &s(&out), "--formats", "stl"]);
+    let mut args = vec!["-q", "run", &s(&series), "-o", &s(&out), "--formats", "stl"]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+    args.extend(extra.iter().map(|a| a.to_string()));
+    bskin(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     let r = edges(&read_stl(&out.join("mesh.stl")));
     let expected = truth_volume(&truth);
     let rel = (r.volume - expected) / expected;
@@ -123,7 +135,7 @@ fn check(shape: &str, volume_tol: f64) -> f64 {
     );
     assert!(r.volume > 0.0, "{shape}: normals point inwards");
     assert!(rel.abs() < volume_tol, "{shape}: volume off by {rel:+.4}");
-    rel
+    (rel, report)
 }
 
 #[test]
@@ -178,4 +190,24 @@ fn blobs_are_closed() {
 fn torus_standing_and_tube_three_are_closed() {
     check("torus-standing", 0.01);
     check("tube-three", 0.01);
+}
+
+/// Long objects are split into surfaces of at most `--max-curves` curves that share the contour
+/// where they meet: still closed, each input point counted once, every surface certified.
+#[test]
+fn split_regions_stay_closed_and_count_points_once() {
+    let (_, whole) = check_with("tubes-crossing", 0.01, &[]);
+    let (_, split) = check_with("tubes-crossing", 0.01, &["--max-curves", "6"]);
+    let n = |r: &serde_json::Value| r["surfaces"].as_array().unwrap().len();
+    assert!(
+        n(&split) > 2 * n(&whole),
+        "{} vs {} surfaces",
+        n(&split),
+        n(&whole)
+    );
+    assert_eq!(split["input_points_total"], whole["input_points_total"]);
+    assert_eq!(split["tolerance_met"], serde_json::Value::Bool(true));
+    for s in split["surfaces"].as_array().unwrap() {
+        assert!(s["curves"].as_u64().unwrap() <= 6, "{s}");
+    }
 }

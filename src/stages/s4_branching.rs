@@ -214,9 +214,18 @@ pub struct Assembler {
     /// Open region per contour of the current top section.
     open: Vec<Option<Region>>,
     next_id: usize,
+    /// Most curves of a region (0: no limit); see `RunConfig::max_curves`.
+    max_curves: usize,
 }
 
 impl Assembler {
+    pub fn new(max_curves: usize) -> Self {
+        Assembler {
+            max_curves,
+            ..Default::default()
+        }
+    }
+
     fn close(&mut self, mut r: Region, out: &mut Vec<Region>) {
         r.id = self.next_id;
         self.next_id += 1;
@@ -244,6 +253,20 @@ impl Assembler {
                     let (lo, up) = both(t)?;
                     let mut r = self.take(*lower, lo)?;
                     r.curves.push(contour_curve(up, *upper));
+                    if self.max_curves >= 2 && r.curves.len() >= self.max_curves {
+                        // A long chain: this segment ends here, the next starts on the same
+                        // contour (its mesh rows are that contour's points on both sides).
+                        let joint = r.curves.last().cloned();
+                        let hole = r.hole;
+                        self.close(r, &mut closed);
+                        r = Region {
+                            id: 0,
+                            hole,
+                            curves: joint.into_iter().collect(),
+                            seal: Vec::new(),
+                            joint_below: true,
+                        };
+                    }
                     next[*upper] = Some(r);
                 }
                 (
@@ -288,6 +311,7 @@ impl Assembler {
                             hole: *hole,
                             curves: vec![RegionCurve { points, origin }, contour_curve(up, k)],
                             seal: seal.take().unwrap_or_default(),
+                            joint_below: false,
                         });
                     }
                 }
@@ -333,6 +357,7 @@ impl Assembler {
                                 hole,
                                 curves: vec![end, contour_curve(section, k)],
                                 seal: seal.take().unwrap_or_default(),
+                                joint_below: false,
                             });
                         }
                     }
@@ -360,6 +385,7 @@ fn both(t: &Transition) -> Result<(&Arc<Section>, &Arc<Section>)> {
 pub fn run(
     input: Receiver<Transition>,
     cell_mm: f64,
+    max_curves: usize,
     out: Sender<Region>,
     ctl: &Control,
 ) -> Result<StageStats> {
@@ -367,7 +393,7 @@ pub fn run(
         stage: STAGE,
         ..Default::default()
     };
-    let mut assembler = Assembler::default();
+    let mut assembler = Assembler::new(max_curves);
     for t in input.iter() {
         ctl.check()?;
         let start = Instant::now();
