@@ -20,6 +20,7 @@
 //! Rows are sampled at every curve's v̄_k, so the mesh passes through every fitted curve.
 
 use crate::bspline::surface::SkinnedSurface;
+use crate::bspline::vecops::{dot, norm, sub};
 
 pub type Triangle = [[f64; 3]; 3];
 type P3 = [f64; 3];
@@ -91,7 +92,7 @@ pub fn sample_params(s: &SkinnedSurface, chordal_mm: f64) -> (Vec<f64>, Vec<f64>
                     let v = vw[0] + (vw[1] - vw[0]) * b as f64 / (PROBES - 1) as f64;
                     let d = s.derivs2(u, v);
                     for (mk, dk) in m.iter_mut().zip([d[3], d[5], d[4]]) {
-                        *mk = mk.max(norm(dk));
+                        *mk = mk.max(norm(&dk));
                     }
                 }
             }
@@ -239,18 +240,6 @@ fn dedup_loop(l: &[P3]) -> Vec<P3> {
     out
 }
 
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: &P3, b: &P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn norm(a: P3) -> f64 {
-    dot(&a, &a).sqrt()
-}
-
 fn dist2(a: &P3, b: &P3) -> f64 {
     let d = sub(a, b);
     dot(&d, &d)
@@ -258,13 +247,7 @@ fn dist2(a: &P3, b: &P3) -> f64 {
 
 /// `(b − a) × (c − a)` (not normalised).
 pub fn normal(t: &Triangle) -> [f64; 3] {
-    let u = [t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]];
-    let v = [t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]];
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
+    cross(&sub(&t[1], &t[0]), &sub(&t[2], &t[0]))
 }
 
 /// Triangles closing what the end loops of one problem leave open on their plane.
@@ -309,7 +292,10 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
         })
     };
     for (a, b) in order {
-        let bal = balance.get_mut(&(key(&a), key(&b))).expect("edge counted");
+        // Every edge of `order` was counted above.
+        let Some(bal) = balance.get_mut(&(key(&a), key(&b))) else {
+            continue;
+        };
         while *bal > 0 {
             *bal -= 1;
             let (ia, ib) = (id(a, &mut points), id(b, &mut points));
@@ -363,7 +349,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
         nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
     }
     // In-plane axes with e1 × e2 along the normal: the polygon is counter-clockwise in them.
-    let len = norm(nrm).max(1e-300);
+    let len = norm(&nrm).max(1e-300);
     let nz = [nrm[0] / len, nrm[1] / len, nrm[2] / len];
     let helper = if nz[0].abs() < 0.9 {
         [1.0, 0.0, 0.0]
@@ -372,7 +358,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
     };
     let e1 = {
         let c = cross(&helper, &nz);
-        let l = norm(c);
+        let l = norm(&c);
         [c[0] / l, c[1] / l, c[2] / l]
     };
     let e2 = cross(&nz, &e1);

@@ -19,6 +19,8 @@
 //! All shapes fit in the box |x|, |y| ≤ 45 mm, |z| ≤ 42 mm ([`Shape::bounds`]), which the
 //! default [`super::PhantomSpec`] covers, so every surface is closed inside the volume.
 
+use crate::bspline::vecops::{dot, sub};
+
 /// The phantom shapes, by CLI name (see [`Shape::NAMES`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Shape {
@@ -210,11 +212,11 @@ impl std::fmt::Display for Shape {
 
 /// Exact distance to a capsule (segment `a`–`b` swept by a ball of radius `r`).
 fn capsule(p: [f64; 3], a: [f64; 3], b: [f64; 3], r: f64) -> f64 {
-    let pa = sub(p, a);
-    let ba = sub(b, a);
-    let t = (dot(pa, ba) / dot(ba, ba)).clamp(0.0, 1.0);
+    let pa = sub(&p, &a);
+    let ba = sub(&b, &a);
+    let t = (dot(&pa, &ba) / dot(&ba, &ba)).clamp(0.0, 1.0);
     let q = [pa[0] - t * ba[0], pa[1] - t * ba[1], pa[2] - t * ba[2]];
-    dot(q, q).sqrt() - r
+    dot(&q, &q).sqrt() - r
 }
 
 /// Exact distance to a torus around the z axis (major radius `big`, tube radius `small`).
@@ -231,15 +233,7 @@ fn ellipsoid(p: [f64; 3], c: [f64; 3], r: [f64; 3]) -> f64 {
         (p[2] - c[2]) / r[2],
     ];
     let rmin = r[0].min(r[1]).min(r[2]);
-    (dot(q, q).sqrt() - 1.0) * rmin
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    (dot(&q, &q).sqrt() - 1.0) * rmin
 }
 
 #[cfg(test)]
