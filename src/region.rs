@@ -15,7 +15,7 @@ pub enum CurveOrigin {
     Contour { slice: usize, contour: usize },
     /// An intermediate contour of a branching problem, between two slices.
     Intermediate { below: usize, above: usize },
-    /// Where a region closes off half a slice beyond its last contour.
+    /// Where a region closes off beyond its last contour (see `capping::cap_height`).
     Cap { slice: usize },
 }
 

@@ -35,8 +35,23 @@ use super::BsplineError;
 
 type P3 = [f64; 3];
 
-/// Skins the curves; see the module doc.
+/// Skins the curves; see the module doc. An end curve that is a point is a cap.
 pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
+    let caps = [
+        curves.first().is_some_and(|c| c.is_point()),
+        curves.last().is_some_and(|c| c.is_point()),
+    ];
+    skin_capped(curves, caps)
+}
+
+/// Skins the curves, with caps at the ends flagged in `caps` (start, end): a point, or a
+/// ridge loop where an annulus closes. At a capped loop the surface arrives parallel to the
+/// slices like at a cap point, so the outer and hole walls that share the ridge meet
+/// smoothly, as on the top of a torus, instead of in a crease.
+pub fn skin_capped(
+    curves: &[ClosedCurve<3>],
+    caps: [bool; 2],
+) -> Result<SkinnedSurface, BsplineError> {
     if curves.len() < 2 {
         return Err(BsplineError::InvalidArgument(format!(
             "skinning needs at least 2 curves, got {}",
@@ -141,20 +156,20 @@ pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
     };
     let mut t0: Vec<P3> = (0..n1).map(tangent_start).collect();
     let mut tr: Vec<P3> = (0..n1).map(tangent_end).collect();
-    if curves[0].is_point() {
+    if caps[0] {
         cap_tangents(
             &mut t0,
-            curves[0].control()[0],
+            curves[0].control(),
             curves[1].control(),
             v_bar[1] - v_bar[0],
             1.0,
         );
     }
-    if curves[r].is_point() {
+    if caps[1] {
         // The end tangent follows increasing v, i.e. points from the neighbour to the cap.
         cap_tangents(
             &mut tr,
-            curves[r].control()[0],
+            curves[r].control(),
             curves[r - 1].control(),
             v_bar[r] - v_bar[r - 1],
             -1.0,
@@ -205,10 +220,11 @@ pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
     SkinnedSurface::try_new(uk, vk, control, v_bar)
 }
 
-/// Projects cap tangents into the plane through the cap point `q` orthogonal to the
-/// neighbouring curve's normal (see the module doc). `h` is the v̄ step to the neighbour;
-/// `sign` is +1 at the start (tangents point from the cap outwards), −1 at the end.
-fn cap_tangents(t: &mut [P3], q: P3, neighbour: &[P3], h: f64, sign: f64) {
+/// Projects cap tangents into the plane orthogonal to the neighbouring curve's normal (see
+/// the module doc). `cap` holds the cap's control points (one, or one per column of a ridge
+/// loop); `h` is the v̄ step to the neighbour; `sign` is +1 at the start (tangents point
+/// from the cap outwards), −1 at the end.
+fn cap_tangents(t: &mut [P3], cap: &[P3], neighbour: &[P3], h: f64, sign: f64) {
     let n = neighbour.len();
     let c = scale(
         &neighbour.iter().fold([0.0; 3], |acc, p| add(&acc, p)),
@@ -234,6 +250,7 @@ fn cap_tangents(t: &mut [P3], q: P3, neighbour: &[P3], h: f64, sign: f64) {
     let proj = |v: &P3| sub(v, &scale(&nn, dot(v, &nn)));
     for (i, ti) in t.iter_mut().enumerate() {
         let p = proj(ti);
+        let q = cap[i % cap.len()];
         let chord = scale(&proj(&sub(&neighbour[i], &q)), sign / h);
         *ti = if dot(&p, &chord) > 0.0 { p } else { chord };
     }

@@ -60,7 +60,7 @@ pub struct Transition {
     pub lower: Option<Arc<Section>>,
     pub upper: Option<Arc<Section>>,
     /// Distance between the two planes along the normal (at the ends of the series: the
-    /// spacing to the nearest section, so caps sit half a slice beyond).
+    /// spacing to the nearest section: caps sit within it).
     pub spacing: f64,
     pub problems: Vec<Problem>,
 }

@@ -5,6 +5,7 @@
 //! contours and starts new ones above, a cap ends or starts one. A region leaves as soon as it
 //! is closed, so memory holds only the regions still open at the current slice.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -14,12 +15,12 @@ use rayon::prelude::*;
 use super::s3_correspondence::{Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
-use crate::geometry::capping::cap;
+use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::polygon::Point;
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
-use crate::section::{Section, SliceFrame};
+use crate::section::{dot, Section, SliceFrame};
 use crate::{Error, Result};
 
 pub const STAGE: &str = "branching";
@@ -241,12 +242,80 @@ impl Assembler {
         })
     }
 
-    /// Apply one transition; returns the regions it closes, in problem order.
-    pub fn apply(&mut self, t: &Transition, solved: Vec<Solved>) -> Result<Vec<Region>> {
+    /// The sections a cap closes, going away from the cap, as `(distance, width)` for
+    /// [`cap_height`]: the capped section's contours `ids` (outer first, or a lone void),
+    /// then, while every one of them continues 1-to-1 from an input contour, those it
+    /// continues from. Above the series these are the open regions' earlier curves; below it
+    /// the links of the transitions `ahead`.
+    fn cap_widths(
+        &self,
+        section: &Section,
+        side: Side,
+        ids: &[usize],
+        ahead: &[Transition],
+    ) -> Vec<(f64, f64)> {
+        let frame = &section.frame;
+        let width = |loops: &[Vec<Point>]| {
+            let holes: Vec<&[Point]> = loops[1..].iter().map(|h| h.as_slice()).collect();
+            material_width(&loops[0], &holes)
+        };
+        let own: Vec<Vec<Point>> = ids
+            .iter()
+            .map(|&k| section.contours[k].points.clone())
+            .collect();
+        let mut widths = vec![(0.0, width(&own))];
+        let mut current: Vec<usize> = ids.to_vec();
+        for depth in 1..=2 {
+            let curves: Option<Vec<Vec<[f64; 3]>>> = match side {
+                Side::Above => ids
+                    .iter()
+                    .map(|&k| {
+                        let r = self.open.get(k)?.as_ref()?;
+                        let c = &r.curves[r.curves.len().checked_sub(1 + depth)?];
+                        matches!(c.origin, CurveOrigin::Contour { .. }).then(|| c.points.clone())
+                    })
+                    .collect(),
+                Side::Below => ahead.get(depth - 1).and_then(|next| {
+                    let up = next.upper.as_ref()?;
+                    current = current
+                        .iter()
+                        .map(|&k| {
+                            next.problems.iter().find_map(|p| match p {
+                                Problem::Link { lower, upper, .. } if *lower == k => Some(*upper),
+                                _ => None,
+                            })
+                        })
+                        .collect::<Option<Vec<usize>>>()?;
+                    Some(
+                        current
+                            .iter()
+                            .map(|&k| contour_curve(up, k).points)
+                            .collect(),
+                    )
+                }),
+            };
+            let Some(curves) = curves else { break };
+            let distance = dot(sub3(curves[0][0], frame.origin), frame.normal()).abs();
+            let loops: Vec<Vec<Point>> = curves
+                .iter()
+                .map(|c| c.iter().map(|&p| frame.to_plane(p)).collect())
+                .collect();
+            widths.push((distance, width(&loops)));
+        }
+        widths
+    }
+
+    /// Apply one transition; returns the regions it closes, in problem order. `ahead` are
+    /// the next transitions (up to two), whose links place the caps that start regions.
+    pub fn apply(
+        &mut self,
+        t: &Transition,
+        solved: Vec<Solved>,
+        ahead: &[Transition],
+    ) -> Result<Vec<Region>> {
         let mut closed = Vec::new();
         let mut next: Vec<Option<Region>> =
             vec![None; t.upper.as_ref().map_or(0, |u| u.contours.len())];
-        let half = 0.5 * t.spacing;
         for (p, s) in t.problems.iter().zip(solved) {
             match (p, s) {
                 (Problem::Link { lower, upper, .. }, Solved::Link) => {
@@ -327,12 +396,19 @@ impl Assembler {
                         ends.push((*o, false, c));
                     }
                     ends.extend(holes.iter().zip(ch).map(|(&h, c)| (h, true, c)));
-                    let (section, dz) = match side {
-                        Side::Above => (t.lower.as_ref(), half),
-                        Side::Below => (t.upper.as_ref(), -half),
+                    let section = match side {
+                        Side::Above => t.lower.as_ref(),
+                        Side::Below => t.upper.as_ref(),
+                    }
+                    .ok_or_else(|| Error::Internal("cap without its section".into()))?;
+                    // Every loop of one cap at one height: they share ridge loops and seals.
+                    let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
+                    let height =
+                        cap_height(&self.cap_widths(section, *side, &ids, ahead), t.spacing);
+                    let dz = match side {
+                        Side::Above => height,
+                        Side::Below => -height,
                     };
-                    let section =
-                        section.ok_or_else(|| Error::Internal("cap without its section".into()))?;
                     let origin = CurveOrigin::Cap {
                         slice: section.index,
                     };
@@ -375,6 +451,10 @@ impl Assembler {
     }
 }
 
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
 fn both(t: &Transition) -> Result<(&Arc<Section>, &Arc<Section>)> {
     match (&t.lower, &t.upper) {
         (Some(a), Some(b)) => Ok((a, b)),
@@ -394,21 +474,29 @@ pub fn run(
         ..Default::default()
     };
     let mut assembler = Assembler::new(max_curves);
-    for t in input.iter() {
+    // Two transitions are held back: caps that start regions are placed from the links above.
+    let mut held: VecDeque<Transition> = VecDeque::with_capacity(3);
+    let mut input = input.iter().map(Some).chain(std::iter::once(None));
+    while let Some(arrived) = input.next() {
         ctl.check()?;
-        let start = Instant::now();
-        // The problems of one transition are independent: solve them in parallel, in order.
-        let solved: Result<Vec<Solved>> = t
-            .problems
-            .par_iter()
-            .map(|p| solve(&t, p, cell_mm, ctl))
-            .collect();
-        let closed = assembler.apply(&t, solved?)?;
-        stats.busy += start.elapsed();
-        for r in closed {
-            stats.items += 1;
-            if out.send(r).is_err() {
-                return Ok(stats);
+        let end = arrived.is_none();
+        held.extend(arrived);
+        while held.len() > 2 || (end && !held.is_empty()) {
+            let Some(t) = held.pop_front() else { break };
+            let start = Instant::now();
+            // The problems of one transition are independent: solve them in parallel, in order.
+            let solved: Result<Vec<Solved>> = t
+                .problems
+                .par_iter()
+                .map(|p| solve(&t, p, cell_mm, ctl))
+                .collect();
+            let closed = assembler.apply(&t, solved?, held.make_contiguous())?;
+            stats.busy += start.elapsed();
+            for r in closed {
+                stats.items += 1;
+                if out.send(r).is_err() {
+                    return Ok(stats);
+                }
             }
         }
     }

@@ -10,9 +10,9 @@ use rayon::prelude::*;
 
 use super::s6_fitting::{describe, FittedRegion};
 use super::{Control, StageStats};
-use crate::bspline::skinning::skin;
+use crate::bspline::skinning::skin_capped;
 use crate::bspline::surface::SkinnedSurface;
-use crate::region::{CurveOrigin, Region};
+use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::{Error, Result};
 
 pub const STAGE: &str = "skinning";
@@ -40,7 +40,10 @@ pub struct Surface {
 
 pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
     let FittedRegion { region, fit } = fitted;
-    let surface = skin(&fit.curves).map_err(|e| Error::Kernel {
+    let is_cap =
+        |c: Option<&RegionCurve>| c.is_some_and(|c| matches!(c.origin, CurveOrigin::Cap { .. }));
+    let caps = [is_cap(region.curves.first()), is_cap(region.curves.last())];
+    let surface = skin_capped(&fit.curves, caps).map_err(|e| Error::Kernel {
         stage: STAGE,
         context: describe(&region),
         source: e,
