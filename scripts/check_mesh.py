@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
-"""Check a `bskin run` mesh with an independent mesh library (trimesh).
+"""Check a `bskin run` mesh with independent mesh libraries (trimesh, and MeshLab's pymeshlab).
 
 In: OUT_DIR/mesh.stl, and optionally TRUTH.json from `bskin phantom ... --truth TRUTH.json`
 (the analytic shape's volume). Checks:
   - the mesh is watertight (every edge shared by exactly two faces, after trimesh merges
     identical vertices) and its winding is consistent;
   - its volume is positive (normals point outwards);
-  - with --truth: the volume is within --volume-tol (relative, default 0.01) of the analytic one.
+  - with --truth: the volume is within --volume-tol (relative, default 0.01) of the analytic one;
+  - with --self-intersections: no two faces intersect, other than along the edge or at the
+    vertex they share (MeshLab's per-face self-intersection selection, after pymeshlab merges
+    identical vertices on loading the STL).
 Prints one line of figures. Exit status 0 when all checks pass, 1 otherwise.
-Usage: check_mesh.py OUT_DIR [--truth TRUTH.json] [--volume-tol 0.01]
+Usage: check_mesh.py OUT_DIR [--truth TRUTH.json] [--volume-tol 0.01] [--self-intersections]
 """
 
 import argparse
@@ -22,6 +25,7 @@ def main():
     ap.add_argument("out_dir")
     ap.add_argument("--truth", help="JSON with volume_mm3 (bskin phantom --truth)")
     ap.add_argument("--volume-tol", type=float, default=0.01)
+    ap.add_argument("--self-intersections", action="store_true")
     a = ap.parse_args()
 
     import trimesh
@@ -51,6 +55,16 @@ def main():
             failures.append(
                 f"volume off by {100 * rel:+.2f} % (allowed ±{100 * a.volume_tol:.2f} %)"
             )
+    if a.self_intersections:
+        import pymeshlab
+
+        ms = pymeshlab.MeshSet()
+        ms.load_new_mesh(path)
+        ms.compute_selection_by_self_intersections_per_face()
+        crossing = ms.current_mesh().selected_face_number()
+        line += f", {crossing} self-intersecting faces"
+        if crossing:
+            failures.append(f"{crossing} faces intersect other faces")
     print(line)
     for f in failures:
         print(f"FAIL: {f}", file=sys.stderr)

@@ -20,7 +20,7 @@
 //! Rows are sampled at every curve's v̄_k, so the mesh passes through every fitted curve.
 
 use crate::bspline::surface::SkinnedSurface;
-use crate::bspline::vecops::{dot, norm, sub};
+use crate::bspline::vecops::{add, dot, norm, scale, sub};
 
 pub type Triangle = [[f64; 3]; 3];
 type P3 = [f64; 3];
@@ -49,18 +49,36 @@ pub fn tessellate_each(
     mut emit: impl FnMut(Triangle),
 ) {
     let (us, vs) = sample_params(s, chordal_mm);
-    let (bottom, top) = (dedup_loop(bottom), dedup_loop(top));
+    let vb = s.v_bar();
+    let (v0, v1) = (vb[0], vb[1]);
+    let (vr1, vr) = (vb[vb.len() - 2], vb[vb.len() - 1]);
+    let bottom = End::new(s, &us, v0, dedup_loop(bottom));
+    let top = End::new(s, &us, vr, dedup_loop(top));
     let nu = us.len();
     let last = vs.len() - 1;
-    // Interior rows only (1..last): rows 0 and `last` are the end loops.
-    let row = |v: f64| -> Vec<P3> { us.iter().map(|&u| s.eval(u, v)).collect() };
+    // Interior rows only (1..last): rows 0 and `last` are the end loops. Rows before the
+    // second curve (after the second-to-last) move towards the end loop (see `End::offsets`).
+    let row = |v: f64| -> Vec<P3> {
+        let (wb, wt) = (fade((v - v0) / (v1 - v0)), fade((vr - v) / (vr - vr1)));
+        (0..nu)
+            .map(|k| {
+                let mut p = s.eval(us[k], v);
+                for (w, end) in [(wb, &bottom), (wt, &top)] {
+                    if w > 0.0 && !end.offsets.is_empty() {
+                        p = add(&p, &scale(&end.offsets[k], w));
+                    }
+                }
+                p
+            })
+            .collect()
+    };
     let mut push = |t: Triangle| {
         if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
             emit(t);
         }
     };
     let mut lower = row(vs[1]);
-    zip_end(s, &us, vs[0], &bottom, &lower, false, &mut push);
+    zip_end(&us, &bottom, &lower, false, &mut push);
     for &v in &vs[2..last] {
         let upper = row(v);
         for i in 0..nu {
@@ -71,7 +89,78 @@ pub fn tessellate_each(
         }
         lower = upper;
     }
-    zip_end(s, &us, vs[last], &top, &lower, true, &mut push);
+    zip_end(&us, &top, &lower, true, &mut push);
+}
+
+/// 1 at s = 0 falling to 0 at s = 1 (and beyond) with zero slope at both: a smoothstep.
+fn fade(s: f64) -> f64 {
+    if !(s < 1.0) {
+        return 0.0;
+    }
+    let s = s.max(0.0);
+    1.0 - s * s * (3.0 - 2.0 * s)
+}
+
+/// One end of a surface's mesh: its exact loop (or point), where the loop's points fall on
+/// the boundary iso-curve, and the loop's offsets from that iso-curve at the row samples.
+struct End {
+    points: Vec<P3>,
+    /// Parameters u of the points on the boundary iso-curve, unwrapped to rise monotonically
+    /// from t_0 ∈ [0, period) to t_m = t_0 + period (m + 1 entries; none for a point).
+    t: Vec<f64>,
+    /// Per row sample u_k: the loop at u_k (linear between its points) minus S(u_k, v). The
+    /// fitted end curve strays from the exact loop by up to the fit tolerance, each surface
+    /// sharing the loop its own way; zipped straight to the loop, two surfaces leaving a
+    /// branching seam at a narrow angle folded through each other (the standing torus).
+    /// Moving the rows up to the next curve by these offsets, faded out by it, makes each
+    /// surface's mesh leave the loop itself. Empty for a point (a cap point is exact).
+    offsets: Vec<P3>,
+}
+
+impl End {
+    fn new(s: &SkinnedSurface, us: &[f64], v: f64, points: Vec<P3>) -> End {
+        if points.len() < 2 {
+            return End {
+                points,
+                t: Vec::new(),
+                offsets: Vec::new(),
+            };
+        }
+        let period = s.u_knots().period();
+        let m = points.len();
+        let boundary: Vec<P3> = us.iter().map(|&u| s.eval(u, v)).collect();
+        let mut t = Vec::with_capacity(m + 1);
+        for (i, p) in points.iter().enumerate() {
+            let raw = project_u(s, us, &boundary, v, p);
+            if i == 0 {
+                t.push(raw);
+                continue;
+            }
+            let prev = t[i - 1];
+            let step = (raw - prev).rem_euclid(period);
+            let next = if step < 0.5 * period {
+                prev + step
+            } else {
+                prev
+            };
+            t.push(next.min(t[0] + period));
+        }
+        t.push(t[0] + period);
+        let offsets = us
+            .iter()
+            .zip(&boundary)
+            .map(|(&u, b)| {
+                let u = if u < t[0] { u + period } else { u };
+                let i = t.partition_point(|&ti| ti <= u).clamp(1, m) - 1;
+                let span = t[i + 1] - t[i];
+                let a = if span > 0.0 { (u - t[i]) / span } else { 0.0 };
+                let (p, q) = (points[i], points[(i + 1) % m]);
+                let at: P3 = std::array::from_fn(|d| p[d] + a * (q[d] - p[d]));
+                sub(&at, b)
+            })
+            .collect();
+        End { points, t, offsets }
+    }
 }
 
 /// The u and v parameters of the grid: every u knot and every v̄_k, with as many samples in
@@ -130,49 +219,22 @@ pub fn sample_params(s: &SkinnedSurface, chordal_mm: f64) -> (Vec<f64>, Vec<f64>
     (us, vs)
 }
 
-/// Join an end (loop or point) at parameter `v` to the adjacent interior `row` (sampled at
-/// `us`). `top`: the end is above the row (v = v̄_last), else below it.
-fn zip_end(
-    s: &SkinnedSurface,
-    us: &[f64],
-    v: f64,
-    end: &[P3],
-    row: &[P3],
-    top: bool,
-    push: &mut impl FnMut(Triangle),
-) {
+/// Join an end (loop or point) to the adjacent interior `row` (sampled at `us`). `top`: the
+/// end is above the row (v = v̄_last), else below it.
+fn zip_end(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnMut(Triangle)) {
     let n = us.len();
     // Orientation as in the grid: a quad (row j: a→b, row j+1: d←c) gives [a,b,c], [a,c,d].
     let tri_row = |lo: P3, lo1: P3, hi: P3| if top { [lo, lo1, hi] } else { [hi, lo1, lo] };
-    if end.len() < 2 {
-        let apex = end[0];
+    let points = &end.points;
+    if points.len() < 2 {
+        let apex = points[0];
         for i in 0..n {
             push(tri_row(row[i], row[(i + 1) % n], apex));
         }
         return;
     }
-    let period = s.u_knots().period();
-    let m = end.len();
-    // Parameters of the loop's points on the boundary iso-curve, unwrapped to rise
-    // monotonically from t_0 ∈ [0, period) to t_m = t_0 + period.
-    let boundary: Vec<P3> = us.iter().map(|&u| s.eval(u, v)).collect();
-    let mut t = Vec::with_capacity(m + 1);
-    for (i, p) in end.iter().enumerate() {
-        let raw = project_u(s, us, &boundary, v, p);
-        if i == 0 {
-            t.push(raw);
-            continue;
-        }
-        let prev = t[i - 1];
-        let step = (raw - prev).rem_euclid(period);
-        let next = if step < 0.5 * period {
-            prev + step
-        } else {
-            prev
-        };
-        t.push(next.min(t[0] + period));
-    }
-    t.push(t[0] + period);
+    let (m, t) = (points.len(), &end.t);
+    let period = t[m] - t[0];
     // Row parameters unwrapped from the last sample at or before t_0.
     let j0 = us.partition_point(|&u| u <= t[0]).saturating_sub(1);
     let r: Vec<f64> = (0..=n)
@@ -182,7 +244,7 @@ fn zip_end(
     while i < m || k < n {
         let advance_end = k == n || (i < m && t[i + 1] <= r[k + 1]);
         let (rk, rk1) = (row[(j0 + k) % n], row[(j0 + k + 1) % n]);
-        let (pi, pi1) = (end[i % m], end[(i + 1) % m]);
+        let (pi, pi1) = (points[i % m], points[(i + 1) % m]);
         if advance_end {
             // Edge p_i → p_{i+1} of the end with the row vertex r_k.
             push(if top { [rk, pi1, pi] } else { [pi, pi1, rk] });

@@ -6,7 +6,9 @@
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
-use bskin::bspline::{fit_common, skin, ClosedCurve, FitOptions, SkinnedSurface};
+use bskin::bspline::{
+    fit_common, skin, skin_ends, ClosedCurve, FitOptions, SkinEnd, SkinnedSurface,
+};
 use helpers::{dist, lift, star};
 use proptest::prelude::*;
 
@@ -180,6 +182,39 @@ fn caps_close_smoothly() {
     for (k, c) in curves.iter().enumerate() {
         assert!(dist(&s.eval(1.3, s.v_bar()[k]), &c.eval(1.3)) < 1e-9);
     }
+}
+
+/// A seam end (an intermediate contour where surfaces branch) leaves along the chord to the
+/// next curve; a capped loop (a ridge where an annulus closes) is reached parallel to the slices;
+/// both still interpolate every curve.
+#[test]
+fn seam_and_ridge_ends_take_their_tangents() {
+    let (curves, _) = region(&[60, 80, 70, 50], 13, (false, false));
+    let s = skin_ends(&curves, [SkinEnd::Seam, SkinEnd::Cap]).unwrap();
+    let (vb, r) = (s.v_bar().to_vec(), curves.len() - 1);
+    let n1 = s.n_u();
+    for q in 0..40 {
+        let u = n1 as f64 * q as f64 / 40.0;
+        let (_, _, sv0) = s.partials(u, 0.0);
+        let chord: [f64; 3] = std::array::from_fn(|x| {
+            (curves[1].eval(u)[x] - curves[0].eval(u)[x]) / (vb[1] - vb[0])
+        });
+        assert!(
+            dist(&sv0, &chord) < 1e-9 * (1.0 + dist(&chord, &[0.0; 3])),
+            "{sv0:?} vs {chord:?}"
+        );
+        let (_, _, svr) = s.partials(u, r as f64);
+        assert!(
+            svr[2].abs() < 1e-9 * (1.0 + dist(&svr, &[0.0; 3])),
+            "{svr:?}"
+        );
+    }
+    for (k, c) in curves.iter().enumerate() {
+        assert!(dist(&s.eval(2.7, vb[k]), &c.eval(2.7)) < 1e-9);
+    }
+    // Free ends are Bessel's, as `skin` gives them.
+    let free = skin_ends(&curves, [SkinEnd::Free, SkinEnd::Free]).unwrap();
+    assert_eq!(free.control(), skin(&curves).unwrap().control());
 }
 
 #[test]

@@ -110,7 +110,7 @@ pub use common_knots::{fit_common, CommonFit};
 pub use cyclic_solver::CyclicBandedMatrix;
 pub use fit::{chord_params, clean_contour, fit_contour, fit_fewest, ContourFit, FitOptions};
 pub use knot_vector::{ClampedKnotVector, PeriodicKnotVector};
-pub use skinning::{skin, skin_capped};
+pub use skinning::{skin, skin_ends, SkinEnd};
 pub use surface::SkinnedSurface;
 
 /// Errors of the B-spline kernel; each states the numbers involved.

@@ -35,22 +35,39 @@ use super::BsplineError;
 
 type P3 = [f64; 3];
 
-/// Skins the curves; see the module doc. An end curve that is a point is a cap.
-pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
-    let caps = [
-        curves.first().is_some_and(|c| c.is_point()),
-        curves.last().is_some_and(|c| c.is_point()),
-    ];
-    skin_capped(curves, caps)
+/// How a surface leaves its first or arrives at its last curve (the end tangents).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkinEnd {
+    /// Bessel's parabola through the first (last) three curves.
+    Free,
+    /// A cap: a point, or a ridge loop where an annulus closes. The surface arrives parallel
+    /// to the slices (see the module doc), so the outer and hole walls that share a ridge meet
+    /// smoothly, as on the top of a torus, instead of in a crease.
+    Cap,
+    /// An intermediate contour where surfaces branch: the chord to the next curve. Sibling
+    /// surfaces meet along a seam of the contour; with Bessel's tangents both can arrive
+    /// almost tangent to each other, a knife edge that folds through itself (the standing
+    /// torus), where the chord meets the seam at the angle the contours make.
+    Seam,
 }
 
-/// Skins the curves, with caps at the ends flagged in `caps` (start, end): a point, or a
-/// ridge loop where an annulus closes. At a capped loop the surface arrives parallel to the
-/// slices like at a cap point, so the outer and hole walls that share the ridge meet
-/// smoothly, as on the top of a torus, instead of in a crease.
-pub fn skin_capped(
+/// Skins the curves; see the module doc. An end curve that is a point is a cap, other ends
+/// are free.
+pub fn skin(curves: &[ClosedCurve<3>]) -> Result<SkinnedSurface, BsplineError> {
+    let end = |c: Option<&ClosedCurve<3>>| {
+        if c.is_some_and(|c| c.is_point()) {
+            SkinEnd::Cap
+        } else {
+            SkinEnd::Free
+        }
+    };
+    skin_ends(curves, [end(curves.first()), end(curves.last())])
+}
+
+/// Skins the curves with the given kinds of start and end (see [`SkinEnd`]).
+pub fn skin_ends(
     curves: &[ClosedCurve<3>],
-    caps: [bool; 2],
+    ends: [SkinEnd; 2],
 ) -> Result<SkinnedSurface, BsplineError> {
     if curves.len() < 2 {
         return Err(BsplineError::InvalidArgument(format!(
@@ -131,7 +148,7 @@ pub fn skin_capped(
 
     // End tangents per column.
     let tangent_start = |i: usize| -> P3 {
-        if r == 1 {
+        if r == 1 || ends[0] == SkinEnd::Seam {
             return scale(&sub(&b(i, 1), &b(i, 0)), 1.0 / v_bar[1]);
         }
         let (h1, h2) = (v_bar[1] - v_bar[0], v_bar[2] - v_bar[1]);
@@ -146,6 +163,12 @@ pub fn skin_capped(
         if r == 1 {
             return scale(&sub(&b(i, 1), &b(i, 0)), 1.0 / v_bar[1]);
         }
+        if ends[1] == SkinEnd::Seam {
+            return scale(
+                &sub(&b(i, r), &b(i, r - 1)),
+                1.0 / (v_bar[r] - v_bar[r - 1]),
+            );
+        }
         let (h1, h2) = (v_bar[r - 1] - v_bar[r - 2], v_bar[r] - v_bar[r - 1]);
         let d1 = scale(&sub(&b(i, r - 1), &b(i, r - 2)), 1.0 / h1);
         let d2 = scale(&sub(&b(i, r), &b(i, r - 1)), 1.0 / h2);
@@ -156,7 +179,7 @@ pub fn skin_capped(
     };
     let mut t0: Vec<P3> = (0..n1).map(tangent_start).collect();
     let mut tr: Vec<P3> = (0..n1).map(tangent_end).collect();
-    if caps[0] {
+    if ends[0] == SkinEnd::Cap {
         cap_tangents(
             &mut t0,
             curves[0].control(),
@@ -165,7 +188,7 @@ pub fn skin_capped(
             1.0,
         );
     }
-    if caps[1] {
+    if ends[1] == SkinEnd::Cap {
         // The end tangent follows increasing v, i.e. points from the neighbour to the cap.
         cap_tangents(
             &mut tr,

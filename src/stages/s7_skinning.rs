@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::s6_fitting::{describe, FittedRegion};
 use super::{Control, StageStats};
-use crate::bspline::skinning::skin_capped;
+use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::{Error, Result};
@@ -40,10 +40,13 @@ pub struct Surface {
 
 pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
     let FittedRegion { region, fit } = fitted;
-    let is_cap =
-        |c: Option<&RegionCurve>| c.is_some_and(|c| matches!(c.origin, CurveOrigin::Cap { .. }));
-    let caps = [is_cap(region.curves.first()), is_cap(region.curves.last())];
-    let surface = skin_capped(&fit.curves, caps).map_err(|e| Error::Kernel {
+    let end = |c: Option<&RegionCurve>| match c.map(|c| c.origin) {
+        Some(CurveOrigin::Cap { .. }) => SkinEnd::Cap,
+        Some(CurveOrigin::Intermediate { .. }) => SkinEnd::Seam,
+        _ => SkinEnd::Free,
+    };
+    let ends = [end(region.curves.first()), end(region.curves.last())];
+    let surface = skin_ends(&fit.curves, ends).map_err(|e| Error::Kernel {
         stage: STAGE,
         context: describe(&region),
         source: e,
