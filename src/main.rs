@@ -362,6 +362,14 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         },
         max_error_mm,
         tolerance_met: surfaces.iter().all(|s| s.tolerance_met),
+        mesh: (config.outputs.stl || config.outputs.obj || config.outputs.ply).then(|| {
+            bskin::io::report::MeshReport {
+                chordal_fraction: config.mesh_chordal,
+                chordal_mm: config.mesh_chordal * config.tolerance_mm,
+                triangles: surfaces.iter().map(|s| s.triangles).sum(),
+                seal_triangles: surfaces.iter().map(|s| s.seal_triangles).sum(),
+            }
+        }),
         surfaces,
         files: result.written.files,
         timings: Timings {

@@ -156,9 +156,12 @@ fn contours_and_surfaces_are_identical_whatever_the_thread_count() {
         );
         let mut report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
-        // Timing and memory are measurements of the run, not results.
+        // Timing and memory are measurements of the run, not results (and so is the size of
+        // report.json, which holds them).
         report.as_object_mut().unwrap().remove("timings");
         report.as_object_mut().unwrap().remove("peak_rss_mb");
+        let files = report["files"].as_array_mut().unwrap();
+        assert_eq!(files.pop().unwrap()["name"], "report.json");
         reports.push(report);
     }
     assert!(ndjson[0].len() > 10_000);
@@ -296,14 +299,35 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["coordinates"], "RAS");
-    assert_eq!(report["version"], 2);
+    assert_eq!(report["version"], 3);
     let files: Vec<&str> = report["files"]
         .as_array()
         .unwrap()
         .iter()
         .map(|f| f["name"].as_str().unwrap())
         .collect();
-    assert_eq!(files, ["mesh.obj"]);
+    assert_eq!(files, ["mesh.obj", "report.json"]);
+    // Every file's size is stated, report.json's own included.
+    for f in report["files"].as_array().unwrap() {
+        let on_disk = std::fs::metadata(out.join(f["name"].as_str().unwrap()))
+            .unwrap()
+            .len();
+        assert_eq!(f["bytes"].as_u64(), Some(on_disk), "{f}");
+    }
+    // The mesh section: the chordal tolerance it was made with, triangle totals.
+    let mesh = &report["mesh"];
+    assert_eq!(mesh["chordal_fraction"].as_f64(), Some(0.1));
+    let sum = |k: &str| -> u64 {
+        report["surfaces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s[k].as_u64().unwrap())
+            .sum()
+    };
+    assert_eq!(mesh["triangles"].as_u64(), Some(sum("triangles")));
+    assert_eq!(mesh["seal_triangles"].as_u64(), Some(sum("seal_triangles")));
+    assert!(sum("triangles") > sum("seal_triangles"));
     assert!(!out.join("mesh.stl").exists());
     let spacing = &report["input"]["slice_spacing_mm"];
     assert!(

@@ -1,6 +1,7 @@
-//! `report.json`, version 2: what a `bskin run` read, made and measured. Documented field by
+//! `report.json`, version 3: what a `bskin run` read, made and measured. Documented field by
 //! field in the README. Floating-point values are as computed (shortest round-trip form), so
-//! the same input gives the same bytes, except for the timing and memory fields.
+//! the same input gives the same bytes, except for the timing and memory fields (and so
+//! report.json's own size).
 
 use serde::Serialize;
 
@@ -10,8 +11,9 @@ use crate::stages::StageStats;
 
 pub const FORMAT: &str = "bskin-report";
 /// 2: `input.slice_spacing_mm` added; `input.threshold` an object (was Rust debug text);
-/// `coordinates` follows `--ras`.
-pub const VERSION: u32 = 2;
+/// `coordinates` follows `--ras`. 3: `mesh` (chordal tolerance, triangle totals) and per
+/// surface `seal_triangles` added; `files` lists report.json too.
+pub const VERSION: u32 = 3;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -35,6 +37,7 @@ pub struct Report {
     pub reduction_ratio_raw: f64,
     pub max_error_mm: f64,
     pub tolerance_met: bool,
+    pub mesh: Option<MeshReport>,
     pub files: Vec<FileReport>,
     pub timings: Timings,
     pub peak_rss_mb: Option<f64>,
@@ -93,7 +96,22 @@ pub struct SurfaceReport {
     pub curve_fit_max_mm: f64,
     pub tolerance_mm: f64,
     pub tolerance_met: bool,
+    /// Triangles of this surface in the mesh files, its seal triangles included.
     pub triangles: usize,
+    /// Flat triangles closing slivers where its end loops do not tile their plane.
+    pub seal_triangles: usize,
+}
+
+/// How the mesh files were tessellated; absent when no mesh file was asked for.
+#[derive(Serialize, Debug, Clone)]
+pub struct MeshReport {
+    /// `--chordal`: the chordal tolerance as a fraction of the fitting tolerance.
+    pub chordal_fraction: f64,
+    /// The chordal tolerance: triangles stay within it of the surfaces (mm), except up to the
+    /// first curve from a shared end loop, where they move onto the loop.
+    pub chordal_mm: f64,
+    pub triangles: usize,
+    pub seal_triangles: usize,
 }
 
 #[derive(Serialize, Debug, Clone)]

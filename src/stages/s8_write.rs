@@ -47,7 +47,7 @@ fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
     }
 }
 
-pub fn summarise(s: &Surface, tolerance: f64, triangles: usize) -> SurfaceReport {
+pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
     let slices: Vec<usize> = s
         .region
         .curves
@@ -78,7 +78,8 @@ pub fn summarise(s: &Surface, tolerance: f64, triangles: usize) -> SurfaceReport
         curve_fit_max_mm: s.curve_fit_max_mm,
         tolerance_mm: tolerance,
         tolerance_met: s.tolerance_met,
-        triangles,
+        triangles: 0,
+        seal_triangles: 0,
     }
 }
 
@@ -104,7 +105,7 @@ pub fn run(
     for s in input.iter() {
         ctl.check()?;
         let t = Instant::now();
-        let mut report = summarise(&s, tolerance, 0);
+        let mut report = summarise(&s, tolerance);
         let surface = in_system(s.surface, system)?;
         if meshes.any() {
             let curves = &s.region.curves;
@@ -146,6 +147,7 @@ pub fn run(
             meshes.write_stl(&chunk)?;
             meshes.write_indexed(report.id, &all)?;
             report.triangles = count;
+            report.seal_triangles = s.region.seal.len();
         }
         written.surfaces.push(report);
         if keep {
@@ -222,16 +224,35 @@ pub fn file_report(path: &Path) -> Result<FileReport> {
     })
 }
 
-/// Write `report.json` atomically; returns its path.
+/// Write `report.json` atomically; returns its path. Its own size is its last `files`
+/// entry: the text is laid out again until the size it states is its size (the digits of a
+/// size rarely change it, so this settles in two or three rounds).
 pub fn write_report(out_dir: &Path, report: &Report) -> Result<PathBuf> {
     use std::io::Write;
     let path = out_dir.join(REPORT_FILE);
-    let mut f = AtomicFile::create(&path)?;
-    serde_json::to_writer_pretty(&mut f, report).map_err(|e| Error::Output {
+    let json_error = |e: serde_json::Error| Error::Output {
         path: path.clone(),
         source: e.into(),
-    })?;
-    f.write_all(b"\n").map_err(|e| Error::Output {
+    };
+    let mut report = report.clone();
+    report.files.push(FileReport {
+        name: REPORT_FILE.to_string(),
+        bytes: 0,
+    });
+    let mut text = Vec::new();
+    for _ in 0..8 {
+        text = serde_json::to_vec_pretty(&report).map_err(json_error)?;
+        text.push(b'\n');
+        let stated = report.files.last().map_or(0, |f| f.bytes);
+        if stated == text.len() as u64 {
+            break;
+        }
+        if let Some(f) = report.files.last_mut() {
+            f.bytes = text.len() as u64;
+        }
+    }
+    let mut f = AtomicFile::create(&path)?;
+    f.write_all(&text).map_err(|e| Error::Output {
         path: path.clone(),
         source: e,
     })?;
