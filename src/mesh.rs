@@ -94,7 +94,7 @@ pub fn tessellate_each(
 
 /// 1 at s = 0 falling to 0 at s = 1 (and beyond) with zero slope at both: a smoothstep.
 fn fade(s: f64) -> f64 {
-    if !(s < 1.0) {
+    if s.is_nan() || s >= 1.0 {
         return 0.0;
     }
     let s = s.max(0.0);

@@ -476,8 +476,7 @@ pub fn run(
     let mut assembler = Assembler::new(max_curves);
     // Two transitions are held back: caps that start regions are placed from the links above.
     let mut held: VecDeque<Transition> = VecDeque::with_capacity(3);
-    let mut input = input.iter().map(Some).chain(std::iter::once(None));
-    while let Some(arrived) = input.next() {
+    for arrived in input.iter().map(Some).chain(std::iter::once(None)) {
         ctl.check()?;
         let end = arrived.is_none();
         held.extend(arrived);
