@@ -16,7 +16,8 @@ use super::vecops::{bbox, box_dist, dist, dot, is_finite, sub};
 use super::BsplineError;
 
 /// Samples per span when seeding the projection.
-const SAMPLES_PER_SPAN: usize = 4;
+/// Smallest sub-interval of a span the global search splits down to, as a fraction.
+const LEAF_DIVISIONS: f64 = 32.0;
 
 /// A closed cubic B-spline curve.
 #[derive(Debug, Clone, PartialEq)]
@@ -204,7 +205,14 @@ impl<const D: usize> ClosedCurve<D> {
     }
 
     /// Global refinement of a local result `best` = (distance, t): every span whose box is
-    /// nearer than `best` is sampled and Newton-refined.
+    /// nearer than `best` is searched by branch and bound. On span s of width w the curve
+    /// moves at most L = 3·diag/w per unit of t (the hodograph's control points are 3·(B_{i+1}
+    /// − B_i) over knot windows of at least w, and consecutive control points of the span lie
+    /// in its box of diagonal diag), so no point of a sub-interval of width h is nearer than
+    /// the distance at its middle minus L·h/2: sub-intervals that cannot beat `best` are
+    /// dropped, the others halved down to w / 32 and refined by Newton from their middle.
+    /// Sampling four points per span and one Newton run missed narrow minima (0.23 against
+    /// 0.036 on a random curve).
     pub(crate) fn refine_boxes(
         &self,
         p: &[f64; D],
@@ -212,26 +220,35 @@ impl<const D: usize> ClosedCurve<D> {
         boxes: &[([f64; D], [f64; D])],
     ) -> (f64, f64) {
         let dom = self.knots.domain();
+        let mut stack: Vec<(f64, f64)> = Vec::new();
         for (s, (lo, hi)) in boxes.iter().enumerate() {
             // Relative slack so that rounding never hides a nearer span.
             if box_dist(p, lo, hi) >= best.0 * (1.0 - 1e-12) {
                 continue;
             }
             let (a, b) = (dom[s], dom[s + 1]);
-            let mut seed = (f64::INFINITY, a);
-            for q in 0..=SAMPLES_PER_SPAN {
-                let t = a + (b - a) * q as f64 / SAMPLES_PER_SPAN as f64;
-                let d = dist(&self.eval(t), p);
-                if d < seed.0 {
-                    seed = (d, t);
+            let lip = 3.0 * dist(lo, hi) / (b - a);
+            let leaf = (b - a) / LEAF_DIVISIONS;
+            stack.clear();
+            stack.push((a, b));
+            while let Some((x, y)) = stack.pop() {
+                let m = 0.5 * (x + y);
+                let d = dist(&self.eval(m), p);
+                if d < best.0 {
+                    best = (d, m);
                 }
-            }
-            if seed.0 < best.0 {
-                best = seed;
-            }
-            let r = self.project_from(p, seed.1);
-            if r.0 < best.0 {
-                best = r;
+                if d - 0.5 * lip * (y - x) >= best.0 * (1.0 - 1e-12) {
+                    continue;
+                }
+                if y - x <= leaf {
+                    let r = self.project_from(p, m);
+                    if r.0 < best.0 {
+                        best = r;
+                    }
+                } else {
+                    stack.push((m, y));
+                    stack.push((x, m));
+                }
             }
         }
         best
