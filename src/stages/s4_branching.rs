@@ -295,7 +295,7 @@ impl Assembler {
                 }),
             };
             let Some(curves) = curves else { break };
-            let distance = dot(sub3(curves[0][0], frame.origin), frame.normal()).abs();
+            let distance = (frame.height() - dot(curves[0][0], frame.normal())).abs();
             let loops: Vec<Vec<Point>> = curves
                 .iter()
                 .map(|c| c.iter().map(|&p| frame.to_plane(p)).collect())
@@ -449,10 +449,6 @@ impl Assembler {
         self.open = next;
         Ok(closed)
     }
-}
-
-fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 fn both(t: &Transition) -> Result<(&Arc<Section>, &Arc<Section>)> {
