@@ -255,17 +255,15 @@ impl Assembler {
         ahead: &[Transition],
     ) -> Vec<(f64, f64)> {
         let frame = &section.frame;
-        let width = |loops: &[Vec<Point>]| {
-            let holes: Vec<&[Point]> = loops[1..].iter().map(|h| h.as_slice()).collect();
-            material_width(&loops[0], &holes)
-        };
-        let own: Vec<Vec<Point>> = ids
+        let width = |loops: &[&[Point]]| material_width(loops[0], &loops[1..]);
+        let own: Vec<&[Point]> = ids
             .iter()
-            .map(|&k| section.contours[k].points.clone())
+            .map(|&k| section.contours[k].points.as_slice())
             .collect();
         let mut widths = vec![(0.0, width(&own))];
         let mut current: Vec<usize> = ids.to_vec();
         for depth in 1..=2 {
+            // The sections `depth` away, in patient mm.
             let curves: Option<Vec<Vec<[f64; 3]>>> = match side {
                 Side::Above => ids
                     .iter()
@@ -300,7 +298,8 @@ impl Assembler {
                 .iter()
                 .map(|c| c.iter().map(|&p| frame.to_plane(p)).collect())
                 .collect();
-            widths.push((distance, width(&loops)));
+            let refs: Vec<&[Point]> = loops.iter().map(|l| l.as_slice()).collect();
+            widths.push((distance, width(&refs)));
         }
         widths
     }
