@@ -256,8 +256,12 @@ pub fn run_surfaces(
                 ),
             )
         });
-        let alignment =
-            scope.spawn(|| cancel_on_error(ctl, s5_alignment::run(regions_rx, aligned_tx, ctl)));
+        let alignment = scope.spawn(|| {
+            cancel_on_error(
+                ctl,
+                s5_alignment::run(regions_rx, aligned_tx, config.tolerance_mm, ctl),
+            )
+        });
         let fitting = scope.spawn(|| {
             cancel_on_error(
                 ctl,
