@@ -48,12 +48,27 @@ pub fn tessellate_each(
     chordal_mm: f64,
     mut emit: impl FnMut(Triangle),
 ) {
-    let (us, vs) = sample_params(s, chordal_mm);
+    let (mut us, vs) = sample_params(s, chordal_mm);
     let vb = s.v_bar();
     let (v0, v1) = (vb[0], vb[1]);
     let (vr1, vr) = (vb[vb.len() - 2], vb[vb.len() - 1]);
-    let bottom = End::new(s, &us, v0, dedup_loop(bottom));
-    let top = End::new(s, &us, vr, dedup_loop(top));
+    let (bottom, top) = (dedup_loop(bottom), dedup_loop(top));
+    let mut ends = (
+        End::new(s, &us, v0, bottom.clone()),
+        End::new(s, &us, vr, top.clone()),
+    );
+    // A loop that visits a vertex twice (a slit) needs row samples between the visits, or the
+    // zip fans both visits from one row vertex: an edge of four triangles.
+    let period = s.u_knots().period();
+    let mut extra = ends.0.slit_samples(&us, period);
+    extra.extend(ends.1.slit_samples(&us, period));
+    if !extra.is_empty() {
+        us.extend(extra);
+        us.sort_by(f64::total_cmp);
+        us.dedup();
+        ends = (End::new(s, &us, v0, bottom), End::new(s, &us, vr, top));
+    }
+    let (bottom, top) = ends;
     let nu = us.len();
     let last = vs.len() - 1;
     // Interior rows only (1..last): rows 0 and `last` are the end loops. Rows before the
@@ -129,9 +144,23 @@ impl End {
         let period = s.u_knots().period();
         let m = points.len();
         let boundary: Vec<P3> = us.iter().map(|&u| s.eval(u, v)).collect();
+        // Each point is projected near where the previous one was, not anywhere: where the
+        // loop runs out along a slit and back (a bridge between the pieces of a split zone,
+        // see `geometry::bridges`) the nearest point of the curve is as often on the other
+        // pass, and the zip would fan both passes from the same row vertex. The curve follows
+        // the loop at about its chord-length speed, so a step is expected at its share of the
+        // period and looked for within three times that, plus four sample spacings.
+        let length: f64 = (0..m)
+            .map(|i| dist2(&points[i], &points[(i + 1) % m]).sqrt())
+            .sum();
+        let h = period / us.len() as f64;
         let mut t = Vec::with_capacity(m + 1);
         for (i, p) in points.iter().enumerate() {
-            let raw = project_u(s, us, &boundary, v, p);
+            let expect = (i > 0 && length > 0.0).then(|| {
+                let step = period * dist2(p, &points[i - 1]).sqrt() / length;
+                (t[i - 1] + step, 3.0 * step + 4.0 * h, length / period)
+            });
+            let raw = project_u(s, us, &boundary, v, p, expect);
             if i == 0 {
                 t.push(raw);
                 continue;
@@ -160,6 +189,38 @@ impl End {
             })
             .collect();
         End { points, t, offsets }
+    }
+}
+
+impl End {
+    /// Row samples to add so that between the two visits of any vertex the loop visits twice
+    /// lie at least three (evenly between, where fewer do).
+    fn slit_samples(&self, us: &[f64], period: f64) -> Vec<f64> {
+        use std::collections::HashMap;
+        let key = |p: &P3| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+        let mut first: HashMap<[u64; 3], usize> = HashMap::new();
+        let mut out = Vec::new();
+        for (j, p) in self.points.iter().enumerate() {
+            let Some(&i) = first.get(&key(p)) else {
+                first.insert(key(p), j);
+                continue;
+            };
+            let (a, b) = (self.t[i], self.t[j]);
+            if b <= a || b.is_nan() {
+                continue;
+            }
+            let between = us
+                .iter()
+                .filter(|&&u| {
+                    let d = (u - a).rem_euclid(period);
+                    d > 0.0 && d < b - a
+                })
+                .count();
+            if between < 3 {
+                out.extend((1..=3).map(|q| (a + (b - a) * q as f64 / 4.0).rem_euclid(period)));
+            }
+        }
+        out
     }
 }
 
@@ -258,13 +319,30 @@ fn zip_end(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnMut(T
 
 /// Parameter u of the closest point to `p` on the iso-curve S(·, v): nearest of the samples
 /// `us` (points `boundary`), then Newton on |C(u) − p|², kept within one sample spacing.
-fn project_u(s: &SkinnedSurface, us: &[f64], boundary: &[P3], v: f64, p: &P3) -> f64 {
+/// With `expect` = (u_e, reach, mm_per_u), only samples within `reach` of u_e count, and each
+/// is scored by its distance plus half its distance from u_e along the curve (mm_per_u: the
+/// curve's mean speed): of two passes of the curve equally near `p`, the expected one wins.
+fn project_u(
+    s: &SkinnedSurface,
+    us: &[f64],
+    boundary: &[P3],
+    v: f64,
+    p: &P3,
+    expect: Option<(f64, f64, f64)>,
+) -> f64 {
     let period = s.u_knots().period();
-    let mut best = (f64::INFINITY, 0.0);
+    let mut best = (f64::INFINITY, expect.map_or(0.0, |e| e.0));
     for (&u, q) in us.iter().zip(boundary) {
-        let d = dist2(q, p);
-        if d < best.0 {
-            best = (d, u);
+        let mut score = dist2(q, p).sqrt();
+        if let Some((ue, reach, speed)) = expect {
+            let du = (u - ue + 0.5 * period).rem_euclid(period) - 0.5 * period;
+            if du.abs() > reach {
+                continue;
+            }
+            score += 0.5 * du.abs() * speed;
+        }
+        if score < best.0 {
+            best = (score, u);
         }
     }
     let h = period / us.len() as f64;
