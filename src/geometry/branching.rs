@@ -4,7 +4,8 @@
 //! z2), filled, counter-clockwise, pairwise disjoint within a section, all in one plane frame
 //! (mm); and the raster cell (mm, e.g. a fifth of the fitting tolerance). Out: one
 //! intermediate contour per input contour on an intermediate plane, lower contours first,
-//! each a counter-clockwise simple loop or, when degenerate, a point; the plane's position
+//! each a counter-clockwise loop, simple but for the slits of bridges (see below), or, when
+//! degenerate, a point; the plane's position
 //! `t` (fraction of the way from z1 to z2); plus warnings.
 //!
 //! The construction, in the paper's terms, with distance maps computed exactly:
@@ -59,8 +60,11 @@
 //! other within 0.06 cell (a corner whose tracing gave up: a saddle or more than 6 cells).
 //!
 //! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
-//! - `M_t ∩ zone_i` in several pieces at the `t` kept (see above): the largest piece is kept.
-//!   The smaller pieces are then covered by no intermediate contour of that section;
+//! - `M_t ∩ zone_i` in several pieces at the `t` kept (see above): beyond the paper, the
+//!   pieces are joined into one loop by zero-width bridges through contour `i`'s footprint
+//!   outside `M_t` ([`super::bridges`]), so each piece stays covered from both sections.
+//!   Pieces below `MIN_PIECE_CELLS` or that no bridge reaches are dropped (no intermediate
+//!   contour of that section covers them; the mesh seals them flat);
 //! - a piece with holes (possible when `M_t` itself is annular): the holes are dropped;
 //! - `M_t ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
 //!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
@@ -76,6 +80,7 @@
 
 use rayon::prelude::*;
 
+use super::bridges::join_pieces;
 use super::distance_map::{
     bbox_of, mark_label_band, nearest_contours_within, signed_distance, validate_polygons, Grid,
     NearestContours, SeedField,
@@ -93,6 +98,11 @@ pub const MAX_RASTER_CELLS: usize = 8 << 20;
 
 /// Samples of empty border around the contours' bounding box.
 const MARGIN_CELLS: usize = 3;
+
+/// Pieces of a split zone smaller than this (cells², 2.56 mm² at the skull's 0.1 mm cells) are
+/// dropped (their lids sealed flat) rather than bridged: the fitted curve would pass a smaller
+/// excursion by within the tolerance, and a mesh zipped along a slit it does not follow folds.
+const MIN_PIECE_CELLS: f64 = 256.0;
 
 /// Compression tolerance of the output loops, in cells.
 pub const SIMPLIFY_TOL_CELLS: f64 = 0.25;
@@ -480,11 +490,13 @@ fn intermediate_contours_with(
         );
     }
 
-    // Each contour's zone within M_t, as one loop.
-    let extracted: Vec<(Option<Vec<Point>>, Vec<String>)> = jobs
+    // Each contour's zone within M_t: its pieces, largest first (several when the zone is
+    // split; they are joined by bridges once compressed, see `bridges`).
+    type Pieces = Option<Vec<Vec<Point>>>;
+    let extracted: Vec<(Pieces, Vec<String>)> = jobs
         .par_iter()
         .zip(&chosen.zones)
-        .map(|(&(is_lower, i), (loops, best, count, total))| {
+        .map(|(&(is_lower, i), (loops, best, _, _))| {
             let mut notes = Vec::new();
             let Some(b) = *best else {
                 return (None, notes);
@@ -493,31 +505,58 @@ fn intermediate_contours_with(
             let name = if is_lower { "lower" } else { "upper" };
             let g = |k: usize| neg_phi[k] as f64;
             let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
-            let chosen = insert_junctions(&loops[b], &grid, &g, &n);
-            if *count > 1 {
-                notes.push(format!(
-                    "{name} contour {i}: its zone meets the intermediate section (t = {t}) in \
-                     {count} pieces; kept the largest ({:.4} of {:.4} mm²)",
-                    signed_area(&chosen),
-                    total
-                ));
+            let mut pieces = vec![insert_junctions(&loops[b], &grid, &g, &n)];
+            for (k, lp) in loops.iter().enumerate() {
+                if k != b && signed_area(lp) > MIN_PIECE_CELLS * cell * cell {
+                    pieces.push(insert_junctions(lp, &grid, &g, &n));
+                }
             }
             let holes = loops
                 .iter()
-                .filter(|lp| signed_area(lp) < 0.0 && contains(&chosen, lp[0]))
+                .filter(|lp| signed_area(lp) < 0.0 && pieces.iter().any(|pc| contains(pc, lp[0])))
                 .count();
             if holes > 0 {
                 notes.push(format!(
                     "{name} contour {i}: its intermediate region has {holes} hole(s); filled"
                 ));
             }
-            (Some(chosen), notes)
+            (Some(pieces), notes)
         })
         .collect();
 
     // Compress all loops together so shared bisecting edges stay shared.
-    let loops: Vec<Vec<Point>> = extracted.iter().filter_map(|(lp, _)| lp.clone()).collect();
-    let mut compressed = simplify_shared(&loops, SIMPLIFY_TOL_CELLS * cell).into_iter();
+    let flat: Vec<Vec<Point>> = extracted
+        .iter()
+        .filter_map(|(lp, _)| lp.as_ref())
+        .flatten()
+        .cloned()
+        .collect();
+    let compressed_flat = simplify_shared(&flat, SIMPLIFY_TOL_CELLS * cell);
+    let all_loops: Vec<&[Point]> = compressed_flat.iter().map(|l| l.as_slice()).collect();
+    let mut next_loop = 0;
+    let mut compressed = Vec::new();
+    for ((&(is_lower, i), (lp, _)), (_, _, count, total)) in
+        jobs.iter().zip(&extracted).zip(&chosen.zones)
+    {
+        let Some(pieces) = lp else { continue };
+        let own = &compressed_flat[next_loop..next_loop + pieces.len()];
+        next_loop += pieces.len();
+        let (name, contour) = if is_lower {
+            ("lower", lower[i])
+        } else {
+            ("upper", upper[i])
+        };
+        let joined = join_pieces(own, contour, &all_loops);
+        if *count > 1 {
+            warnings.push(format!(
+                "{name} contour {i}: its zone meets the intermediate section (t = {t}) in \
+                 {count} pieces; joined {} by bridges, dropped {:.4} of {:.4} mm²",
+                joined.pieces, joined.dropped_area, total
+            ));
+        }
+        compressed.push(joined.points);
+    }
+    let mut compressed = compressed.into_iter();
 
     let mut out = IntermediateContours {
         t,

@@ -4,6 +4,7 @@
 
 pub mod alignment;
 pub mod branching;
+pub mod bridges;
 pub mod capping;
 pub mod conform;
 pub mod contours;

@@ -127,6 +127,51 @@ pub fn is_simple(pts: &[Point]) -> bool {
     true
 }
 
+/// Whether the closed polygon is simple but for slits: like [`is_simple`], except that an
+/// edge may be run both ways (a slit out and back, as bridges between the pieces of a split
+/// zone make) and non-adjacent edges may meet at a vertex they share, as long as they do not
+/// run along each other from it. (A loop crossing itself exactly at a shared vertex passes.)
+pub fn is_weakly_simple(pts: &[Point]) -> bool {
+    let n = pts.len();
+    if n < 3 || (0..n).any(|i| pts[i] == pts[(i + 1) % n]) {
+        return false;
+    }
+    let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
+    let mut order: Vec<usize> = (0..n).collect();
+    let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
+    order.sort_by(|&a, &b| min_x(a).total_cmp(&min_x(b)));
+    let mut active: Vec<usize> = Vec::new();
+    for &i in &order {
+        let (a, b) = edge(i);
+        let lo = a[0].min(b[0]);
+        active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
+        for &j in &active {
+            let (c, d) = edge(j);
+            if a == d && b == c {
+                continue;
+            }
+            let shared = [(a, b, c, d), (a, b, d, c), (b, a, c, d), (b, a, d, c)]
+                .into_iter()
+                .find(|(p, _, q, _)| p == q);
+            match shared {
+                // Meeting at a vertex: only running along each other from it is wrong.
+                Some((p, x, _, y)) => {
+                    if n > 3 && collinear_overlap(x, p, p, y) {
+                        return false;
+                    }
+                }
+                None => {
+                    if segments_intersect(a, b, c, d) {
+                        return false;
+                    }
+                }
+            }
+        }
+        active.push(i);
+    }
+    true
+}
+
 fn orient(a: Point, b: Point, c: Point) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
