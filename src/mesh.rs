@@ -31,8 +31,9 @@ pub const MAX_SAMPLES_PER_SPAN: usize = 64;
 const PROBES: usize = 5;
 
 /// Triangles of `s` with its end rows replaced by the loops `bottom` (at v = v̄_0) and `top`
-/// (at v = v̄_last), each a closed loop in the direction of u or a single point, and the grid
-/// fine enough that the triangles stay within `chordal_mm` of the surface.
+/// (at v = v̄_last), each a closed loop in the direction of u starting where u = 0 (as the
+/// fitted curves do) or a single point, and the grid fine enough that the triangles stay
+/// within `chordal_mm` of the surface.
 pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64) -> Vec<Triangle> {
     let mut tris = Vec::new();
     tessellate_each(s, bottom, top, chordal_mm, |t| tris.push(t));
@@ -149,16 +150,21 @@ impl End {
         // see `geometry::bridges`) the nearest point of the curve is as often on the other
         // pass, and the zip would fan both passes from the same row vertex. The curve follows
         // the loop at about its chord-length speed, so a step is expected at its share of the
-        // period and looked for within three times that, plus four sample spacings.
+        // period and looked for within three times that, plus four sample spacings; the first
+        // point near u = 0, where the fit put it (a slit's base lies on both passes).
         let length: f64 = (0..m)
             .map(|i| dist2(&points[i], &points[(i + 1) % m]).sqrt())
             .sum();
         let h = period / us.len() as f64;
         let mut t = Vec::with_capacity(m + 1);
         for (i, p) in points.iter().enumerate() {
-            let expect = (i > 0 && length > 0.0).then(|| {
-                let step = period * dist2(p, &points[i - 1]).sqrt() / length;
-                (t[i - 1] + step, 3.0 * step + 4.0 * h, length / period)
+            let expect = (length > 0.0).then(|| match i {
+                // The loop's first point is the fitted curve's, at u = 0.
+                0 => (0.0, 4.0 * h, length / period),
+                _ => {
+                    let step = period * dist2(p, &points[i - 1]).sqrt() / length;
+                    (t[i - 1] + step, 3.0 * step + 4.0 * h, length / period)
+                }
             });
             let raw = project_u(s, us, &boundary, v, p, expect);
             if i == 0 {
