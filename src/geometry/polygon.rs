@@ -91,40 +91,20 @@ pub fn boundary_distance(pts: &[Point], p: Point) -> f64 {
 }
 
 /// Whether the closed polygon is simple: no two non-adjacent edges touch or cross, and no
-/// edge has zero length. Sweep over edges sorted by their smallest x, so typical contours
-/// cost O(n log n) rather than O(n²).
+/// edge has zero length.
 pub fn is_simple(pts: &[Point]) -> bool {
     let n = pts.len();
-    if n < 3 {
+    if n < 3 || (0..n).any(|i| pts[i] == pts[(i + 1) % n]) {
         return false;
     }
-    if (0..n).any(|i| pts[i] == pts[(i + 1) % n]) {
-        return false;
-    }
-    let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
-    let mut order: Vec<usize> = (0..n).collect();
-    let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
-    order.sort_by(|&a, &b| min_x(a).total_cmp(&min_x(b)));
-    let mut active: Vec<usize> = Vec::new();
-    for &i in &order {
-        let (a, b) = edge(i);
-        let lo = a[0].min(b[0]);
-        active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
-        for &j in &active {
-            let adjacent = (i + 1) % n == j || (j + 1) % n == i;
-            let (c, d) = edge(j);
-            if adjacent {
-                // Adjacent edges share one vertex; they must not fold back onto each other.
-                if n > 3 && collinear_overlap(a, b, c, d) {
-                    return false;
-                }
-            } else if segments_intersect(a, b, c, d) {
-                return false;
-            }
+    no_edges_meeting(pts, |i, j, (a, b), (c, d)| {
+        if (i + 1) % n == j || (j + 1) % n == i {
+            // Adjacent edges share one vertex; they must not fold back onto each other.
+            n > 3 && collinear_overlap(a, b, c, d)
+        } else {
+            segments_intersect(a, b, c, d)
         }
-        active.push(i);
-    }
-    true
+    })
 }
 
 /// Whether the closed polygon is simple but for slits: like [`is_simple`], except that an
@@ -136,6 +116,29 @@ pub fn is_weakly_simple(pts: &[Point]) -> bool {
     if n < 3 || (0..n).any(|i| pts[i] == pts[(i + 1) % n]) {
         return false;
     }
+    no_edges_meeting(pts, |_, _, (a, b), (c, d)| {
+        if a == d && b == c {
+            return false;
+        }
+        let shared = [(a, b, c, d), (a, b, d, c), (b, a, c, d), (b, a, d, c)]
+            .into_iter()
+            .find(|(p, _, q, _)| p == q);
+        match shared {
+            // Meeting at a vertex: only running along each other from it is wrong.
+            Some((p, x, _, y)) => n > 3 && collinear_overlap(x, p, p, y),
+            None => segments_intersect(a, b, c, d),
+        }
+    })
+}
+
+/// Whether `meet(i, j, edge i, edge j)` is false for every pair of edges whose x-ranges
+/// overlap: a sweep over edges sorted by their smallest x, so typical contours cost
+/// O(n log n) rather than O(n²).
+fn no_edges_meeting(
+    pts: &[Point],
+    meet: impl Fn(usize, usize, (Point, Point), (Point, Point)) -> bool,
+) -> bool {
+    let n = pts.len();
     let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
     let mut order: Vec<usize> = (0..n).collect();
     let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
@@ -145,27 +148,8 @@ pub fn is_weakly_simple(pts: &[Point]) -> bool {
         let (a, b) = edge(i);
         let lo = a[0].min(b[0]);
         active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
-        for &j in &active {
-            let (c, d) = edge(j);
-            if a == d && b == c {
-                continue;
-            }
-            let shared = [(a, b, c, d), (a, b, d, c), (b, a, c, d), (b, a, d, c)]
-                .into_iter()
-                .find(|(p, _, q, _)| p == q);
-            match shared {
-                // Meeting at a vertex: only running along each other from it is wrong.
-                Some((p, x, _, y)) => {
-                    if n > 3 && collinear_overlap(x, p, p, y) {
-                        return false;
-                    }
-                }
-                None => {
-                    if segments_intersect(a, b, c, d) {
-                        return false;
-                    }
-                }
-            }
+        if active.iter().any(|&j| meet(i, j, (a, b), edge(j))) {
+            return false;
         }
         active.push(i);
     }
@@ -235,6 +219,31 @@ pub(crate) fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_slit_is_weakly_simple_a_crossing_is_not() {
+        // Two squares joined by a slit from (1, 0) to (2, 0) and back.
+        let slit = vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [3.0, 0.0],
+            [3.0, 1.0],
+            [2.0, 1.0],
+            [2.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+        ];
+        assert!(is_weakly_simple(&slit) && !is_simple(&slit));
+        let bow = vec![[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]];
+        assert!(!is_weakly_simple(&bow) && !is_simple(&bow));
+        let square = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        assert!(is_weakly_simple(&square) && is_simple(&square));
+        // A slit that runs along its own edge (folds back part-way) is not a slit.
+        let fold = vec![[0.0, 0.0], [2.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        assert!(!is_weakly_simple(&fold));
+    }
 
     const SQUARE: [Point; 4] = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
 
