@@ -19,25 +19,34 @@ pub struct Indexed {
 }
 
 impl Indexed {
-    pub fn of(tris: &[Triangle]) -> Indexed {
+    /// Fails (rather than wrapping the index) when one surface has 2^32 vertices or more.
+    pub fn of(tris: &[Triangle]) -> std::io::Result<Indexed> {
         let mut index: HashMap<[u64; 3], u32> = HashMap::with_capacity(tris.len());
         let mut out = Indexed {
             vertices: Vec::with_capacity(tris.len() / 2 + 3),
             faces: Vec::with_capacity(tris.len()),
         };
         for t in tris {
-            let face = t.map(|p| {
+            let face = t.map(|p| -> std::io::Result<u32> {
                 let key = p.map(f64::to_bits);
-                *index.entry(key).or_insert_with(|| {
-                    out.vertices.push(p);
-                    // 2^32 vertices of one surface would take 96 GB here before this point.
-                    u32::try_from(out.vertices.len() - 1)
-                        .expect("fewer than 2^32 vertices in one surface")
-                })
+                if let Some(&k) = index.get(&key) {
+                    return Ok(k);
+                }
+                let k = u32::try_from(out.vertices.len()).map_err(|_| {
+                    std::io::Error::other(format!(
+                        "a surface with more than {} vertices: 32-bit mesh indices cannot \
+                         address them",
+                        u32::MAX
+                    ))
+                })?;
+                out.vertices.push(p);
+                index.insert(key, k);
+                Ok(k)
             });
-            out.faces.push(face);
+            let [a, b, c] = face;
+            out.faces.push([a?, b?, c?]);
         }
-        out
+        Ok(out)
     }
 }
 
@@ -53,7 +62,7 @@ mod tests {
             [1.0, 1.0, 0.0],
             [0.0, 1.0, 0.0],
         );
-        let m = Indexed::of(&[[a, b, c], [a, c, d]]);
+        let m = Indexed::of(&[[a, b, c], [a, c, d]]).unwrap();
         assert_eq!(m.vertices, vec![a, b, c, d]);
         assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
     }
@@ -65,7 +74,8 @@ mod tests {
         let m = Indexed::of(&[
             [a, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             [a2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        ]);
+        ])
+        .unwrap();
         assert_eq!(m.vertices.len(), 4);
         assert_eq!(m.faces[1], [3, 1, 2]);
     }

@@ -39,7 +39,7 @@ impl<W: Write> ObjWriter<W> {
         if tris.is_empty() {
             return Ok(());
         }
-        let m = Indexed::of(tris);
+        let m = Indexed::of(tris)?;
         let mut buf = Vec::with_capacity(40 * m.vertices.len() + 24 * m.faces.len() + 64);
         writeln!(buf, "o surface_{id}")?;
         writeln!(buf, "g surface_{id}")?;

@@ -49,7 +49,7 @@ impl<W: Write> PlyWriter<W> {
         if tris.is_empty() {
             return Ok(());
         }
-        let m = Indexed::of(tris);
+        let m = Indexed::of(tris)?;
         let total = self.vertices + m.vertices.len() as u64;
         if total > i32::MAX as u64 {
             return Err(io::Error::other(
