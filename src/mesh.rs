@@ -196,9 +196,7 @@ impl End {
             .collect();
         End { points, t, offsets }
     }
-}
 
-impl End {
     /// Row samples to add so that between the two visits of any vertex the loop visits twice
     /// lie at least three (evenly between, where fewer do).
     fn slit_samples(&self, us: &[f64], period: f64) -> Vec<f64> {
@@ -338,7 +336,24 @@ fn project_u(
 ) -> f64 {
     let period = s.u_knots().period();
     let mut best = (f64::INFINITY, expect.map_or(0.0, |e| e.0));
-    for (&u, q) in us.iter().zip(boundary) {
+    // Only the samples in reach are scored: `us` rises in [0, period), so they are one or
+    // two runs of it (the window may wrap round u = 0), visited in index order.
+    let n = us.len();
+    let runs = match expect {
+        Some((ue, reach, _)) if 2.0 * reach < period => {
+            let lo = (ue - reach).rem_euclid(period);
+            let hi = lo + 2.0 * reach;
+            let first = us.partition_point(|&u| u < lo);
+            if hi < period {
+                [0..0, first..us.partition_point(|&u| u <= hi)]
+            } else {
+                [0..us.partition_point(|&u| u <= hi - period), first..n]
+            }
+        }
+        _ => [0..0, 0..n],
+    };
+    for k in runs.into_iter().flatten() {
+        let (u, q) = (us[k], &boundary[k]);
         let mut score = dist2(q, p).sqrt();
         if let Some((ue, reach, speed)) = expect {
             let du = (u - ue + 0.5 * period).rem_euclid(period) - 0.5 * period;
