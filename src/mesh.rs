@@ -27,6 +27,10 @@ type P3 = [f64; 3];
 
 /// Most samples per u knot span or per v interval (a guard against pathological curvature).
 pub const MAX_SAMPLES_PER_SPAN: usize = 64;
+/// Row samples closer than this fraction of the mean spacing are merged.
+const MIN_SAMPLE_GAP: f64 = 0.01;
+/// Most rounds of adding row samples between a slit's or ridge's two visits of a vertex.
+const SLIT_ROUNDS: usize = 4;
 /// Second-derivative samples per patch side (corners and interior points).
 const PROBES: usize = 5;
 
@@ -60,14 +64,26 @@ pub fn tessellate_each(
     );
     // A loop that visits a vertex twice (a slit) needs row samples between the visits, or the
     // zip fans both visits from one row vertex: an edge of four triangles.
+    // The points' parameters are found on the row samples, so they move a little when
+    // samples are added: check again (a few rounds settle it).
     let period = s.u_knots().period();
-    let mut extra = ends.0.slit_samples(&us, period);
-    extra.extend(ends.1.slit_samples(&us, period));
-    if !extra.is_empty() {
+    for _ in 0..SLIT_ROUNDS {
+        let mut extra = ends.0.slit_samples(&us, period);
+        extra.extend(ends.1.slit_samples(&us, period));
+        if extra.is_empty() {
+            break;
+        }
         us.extend(extra);
         us.sort_by(f64::total_cmp);
-        us.dedup();
-        ends = (End::new(s, &us, v0, bottom), End::new(s, &us, vr, top));
+        // Samples added for both ends or in two rounds can lie a hair apart: a column of
+        // vertices that coincide in the STL's float32 would make degenerate triangles. One
+        // sample in a gap is enough to keep two visits apart.
+        let close = MIN_SAMPLE_GAP * period / us.len() as f64;
+        us.dedup_by(|b, a| *b - *a <= close);
+        ends = (
+            End::new(s, &us, v0, bottom.clone()),
+            End::new(s, &us, vr, top.clone()),
+        );
     }
     let (bottom, top) = ends;
     let nu = us.len();
@@ -156,6 +172,20 @@ impl End {
             .map(|i| dist2(&points[i], &points[(i + 1) % m]).sqrt())
             .sum();
         let h = period / us.len() as f64;
+        // A quarter of each point's expected step (from the previous point; point 0's from
+        // the last), and what the points after i need of it before the loop closes at
+        // t_0 + period: points that project past the close (onto the curve's start again,
+        // where the loop returns beside a ridge's tip) keep that much room.
+        let least: Vec<f64> = (0..m)
+            .map(|i| {
+                0.25 * period * dist2(&points[i], &points[(i + m - 1) % m]).sqrt()
+                    / length.max(1e-300)
+            })
+            .collect();
+        let mut reserve = vec![0.0; m + 1];
+        for i in (0..m).rev() {
+            reserve[i] = reserve[i + 1] + least[(i + 1) % m];
+        }
         let mut t = Vec::with_capacity(m + 1);
         for (i, p) in points.iter().enumerate() {
             let expect = (length > 0.0).then(|| match i {
@@ -173,12 +203,15 @@ impl End {
             }
             let prev = t[i - 1];
             let step = (raw - prev).rem_euclid(period);
+            // A point that projects behind the previous one (where the curve rounds the tip
+            // of a ridge loop, or backs along a slit) still moves on by a little: two points
+            // at one parameter would share their row vertices (see `slit_samples`).
             let next = if step < 0.5 * period {
-                prev + step
+                prev + step.max(least[i])
             } else {
-                prev
+                prev + least[i]
             };
-            t.push(next.min(t[0] + period));
+            t.push(next.min(t[0] + period - reserve[i]).max(prev));
         }
         t.push(t[0] + period);
         let offsets = us
@@ -197,8 +230,12 @@ impl End {
         End { points, t, offsets }
     }
 
-    /// Row samples to add so that between the two visits of any vertex the loop visits twice
-    /// lie at least three (evenly between, where fewer do).
+    /// Row samples to add where the loop visits a vertex twice: the zip joins each loop
+    /// point to the row samples from the one before it to the one before the next point, so
+    /// the two visits share a row vertex (an edge of four triangles) unless a sample lies
+    /// between the point after one visit and the other visit. Either way round the loop (a
+    /// ridge loop visits the points beside its tips either side of the tip), three evenly
+    /// spaced samples are added where fewer lie there.
     fn slit_samples(&self, us: &[f64], period: f64) -> Vec<f64> {
         use std::collections::HashMap;
         let key = |p: &P3| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
@@ -209,19 +246,24 @@ impl End {
                 first.insert(key(p), j);
                 continue;
             };
-            let (a, b) = (self.t[i], self.t[j]);
-            if b <= a || b.is_nan() {
-                continue;
-            }
-            let between = us
-                .iter()
-                .filter(|&&u| {
-                    let d = (u - a).rem_euclid(period);
-                    d > 0.0 && d < b - a
-                })
-                .count();
-            if between < 3 {
-                out.extend((1..=3).map(|q| (a + (b - a) * q as f64 / 4.0).rem_euclid(period)));
+            // t has m + 1 entries: t[j + 1] exists for the last point too (t_0 + period).
+            for (a, b) in [
+                (self.t[i + 1], self.t[j]),
+                (self.t[j + 1], self.t[i] + period),
+            ] {
+                if b <= a || b.is_nan() {
+                    continue;
+                }
+                let between = us
+                    .iter()
+                    .filter(|&&u| {
+                        let d = (u - a).rem_euclid(period);
+                        d > 0.0 && d < b - a
+                    })
+                    .count();
+                if between < 3 {
+                    out.extend((1..=3).map(|q| (a + (b - a) * q as f64 / 4.0).rem_euclid(period)));
+                }
             }
         }
         out
