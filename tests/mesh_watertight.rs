@@ -212,3 +212,44 @@ fn split_regions_stay_closed_and_count_points_once() {
         assert!(s["curves"].as_u64().unwrap() <= 6, "{s}");
     }
 }
+
+/// A C-shaped band (three quarters of a ring, 6 mm wide) closes at both ends onto its ridge:
+/// its contour is not star-shaped around any inner point, and a fan onto one point would
+/// reach across the ring's open middle. The mesh stays closed, and no triangle strays from
+/// the band (the centroids stay within a cell of its radii).
+#[test]
+fn a_c_shaped_band_caps_onto_its_ridge_and_stays_closed() {
+    let (c, r0, r1) = (40.0, 24.0, 30.0);
+    let images = common::synthetic(8, 80, |k, x, y| {
+        let (dx, dy) = (x - c, y - c);
+        let r = dx.hypot(dy);
+        let inside = (1..7).contains(&k) && r >= r0 && r <= r1 && dy.atan2(dx).abs() < 2.4;
+        if inside {
+            1000.0
+        } else {
+            0.0
+        }
+    });
+    let out = tempfile::tempdir().unwrap();
+    let config = bskin::config::RunConfig::with_tolerance(0.5);
+    common::run_images(&images, out.path(), &config).expect("run");
+    let tris = read_stl(&out.path().join("mesh.stl"));
+    let e = edges(&tris);
+    assert_eq!((e.not_two, e.same_direction), (0, 0), "{e:?}");
+    assert!(e.volume > 0.0, "{e:?}");
+    let mut off: Vec<(f64, f64, f64)> = Vec::new();
+    for t in &tris {
+        let m: [f64; 3] = std::array::from_fn(|d| (t[0][d] + t[1][d] + t[2][d]) / 3.0);
+        let r = (m[0] - c).hypot(m[1] - c);
+        if !(r > r0 - 1.5 && r < r1 + 1.5) {
+            off.push((r, m[2], (m[1] - c).atan2(m[0] - c)));
+        }
+    }
+    eprintln!(
+        "off {} of {}: {:?}",
+        off.len(),
+        tris.len(),
+        &off[..off.len().min(20)]
+    );
+    assert!(off.is_empty());
+}

@@ -9,7 +9,9 @@
 //! - Without holes the cap is the innermost point of the region's distance map (largest
 //!   distance to the boundary), found on the raster and then refined on the exact distance
 //!   to sub-cell precision (a compass search: the map peaks in a cone or ridge, where a
-//!   parabola fit would be biased).
+//!   parabola fit would be biased). Beyond the paper, a contour not star-shaped around that
+//!   point caps onto a zero-width ridge loop instead (see [`super::ridge`]), or keeps the
+//!   point with a warning where no ridge path passes its checks.
 //! - With holes (beyond the paper: an annulus is the top of a flat torus) the largest-distance
 //!   set is a ridge, not a point. The material is split into zones, one per boundary contour
 //!   (the points of the material nearer to it than to the others); the outer contour closes
@@ -20,15 +22,16 @@
 //!   used (with a warning); if it has none the cap degenerates to the innermost point (with
 //!   a warning).
 //!
-//! Invariants: every loop is counter-clockwise and simple; shared ridge chains are
-//! compressed identically (within a quarter cell); deterministic; errors, not panics, on bad
-//! input.
+//! Invariants: every loop is counter-clockwise and simple, except a ridge loop (zero width,
+//! weakly simple); shared ridge chains are compressed identically (within a quarter cell);
+//! deterministic; errors, not panics, on bad input.
 
 use super::branching::{raster_for, Intermediate, EXACT_MARGIN_CELLS, SIMPLIFY_TOL_CELLS};
 use super::distance_map::{
     inside_mask, mark_label_band, nearest_contours_within, validate_polygons, Grid, SeedField,
 };
 use super::polygon::{perimeter, signed_area, Point};
+use super::ridge::{is_star_around, ridge_loop};
 use super::zones::{largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops};
 use super::GeometryError;
 
@@ -95,8 +98,24 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
         )));
     }
     if holes.is_empty() {
+        let p = innermost(&grid, &all, &neg_sdm);
+        let slack = SIMPLIFY_TOL_CELLS * cell_mm;
+        let outer = if is_star_around(outer, p, slack) {
+            Intermediate::Point(p)
+        } else {
+            match ridge_loop(outer, 0.5 * cell_mm, slack) {
+                Some(lp) => Intermediate::Loop(lp),
+                None => {
+                    warnings.push(format!(
+                        "outer contour: not star-shaped around its innermost point {p:?} and \
+                         no ridge path inside it; capped at the point (the cap may fold)"
+                    ));
+                    Intermediate::Point(p)
+                }
+            }
+        };
         return Ok(Caps {
-            outer: Intermediate::Point(innermost(&grid, &all, &neg_sdm)),
+            outer,
             holes: Vec::new(),
             warnings,
         });

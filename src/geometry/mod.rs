@@ -12,6 +12,7 @@ pub mod distance_map;
 pub mod marching_squares;
 pub mod overlap;
 pub mod polygon;
+pub mod ridge;
 pub mod simplify;
 mod zones;
 
