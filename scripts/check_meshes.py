@@ -57,6 +57,9 @@ def check_dir(d, failures):
         failures.append(f"mesh.stl: {len(stl.faces)} triangles, report.json says {expected}")
     if f"patient {cs} " not in header_text(stl_path):
         failures.append(f"mesh.stl header does not name {cs}: {header_text(stl_path)!r}")
+    # mesh.stl holds no shared vertices: welded by coordinates it is closed or not, and the
+    # indexed formats must be the same as written, with no welding by the reader.
+    stl_closed = trimesh.load(stl_path, force="mesh").is_watertight
     scale = max(1.0, float(np.abs(stl.vertices).max()))
     atol = 4 * np.finfo(np.float32).eps * scale
     for ext in ("obj", "ply"):
@@ -80,6 +83,9 @@ def check_dir(d, failures):
                 failures.append(f"{name}: {what} {a} vs mesh.stl {b}")
         if f"patient {cs}" not in header_text(path):
             failures.append(f"{name}: header does not name {cs}")
+        if m.is_watertight != stl_closed:
+            failures.append(f"{name}: watertight {m.is_watertight} as written, mesh.stl welded "
+                            f"{stl_closed}")
         print(f"check_meshes: {d}/{name}: {len(m.faces)} triangles, {len(m.vertices)} vertices, "
               f"max deviation from mesh.stl {dev:.3g} mm, volume {m.volume:.6g} mm3 "
               f"(stl {stl.volume:.6g}), watertight {m.is_watertight}")

@@ -1,11 +1,18 @@
-//! Indexed meshes for the OBJ and PLY writers: the triangles of one surface as a vertex list
-//! and faces of indices into it.
+//! Indexed meshes for the OBJ and PLY writers: the triangles of one surface as the vertices it
+//! adds to the file and faces of indices into the whole file's vertex list.
 //!
-//! In: triangles (vertex triples). Out: the distinct vertices in order of first appearance and
-//! one index triple per triangle, in the triangles' order and with their vertex order (so the
-//! winding is kept). Vertices are merged only when bit-identical (all three coordinates have
-//! the same f64 bits): no tolerance, so no two distinct points are ever moved onto each other.
-//! Deterministic: the same triangles give the same lists.
+//! In: triangles (vertex triples), the file's [`Seams`] so far and its vertex count. Out: the
+//! new distinct vertices in order of first appearance and one index triple per triangle, in
+//! the triangles' order and with their vertex order (so the winding is kept). Vertices are
+//! merged only when bit-identical (all three coordinates have the same f64 bits): no
+//! tolerance, so no two distinct points are ever moved onto each other.
+//!
+//! Surfaces meet along their end loops, whose points they share bit for bit (see
+//! [`crate::mesh`]). A vertex on a surface's open boundary (an edge of one triangle of it) is
+//! kept in the seams, and a later surface with the same vertex on its boundary uses that one:
+//! the file's mesh is then closed where mesh.stl is, for readers that do not weld vertices.
+//! Only boundary vertices are held across surfaces. Deterministic: the same triangles in the
+//! same order give the same lists.
 
 use std::collections::HashMap;
 
@@ -14,39 +21,70 @@ use crate::mesh::Triangle;
 /// A surface's triangles with shared vertices; see the module doc.
 #[derive(Debug, Default, Clone, PartialEq)]
 pub struct Indexed {
+    /// The vertices the surface adds to the file, in order.
     pub vertices: Vec<[f64; 3]>,
-    pub faces: Vec<[u32; 3]>,
+    /// 0-based indices into the whole file's vertex list.
+    pub faces: Vec<[u64; 3]>,
+}
+
+/// The boundary vertices of the surfaces written so far, with their index in the file.
+#[derive(Debug, Default)]
+pub struct Seams {
+    index: HashMap<[u64; 3], u64>,
 }
 
 impl Indexed {
-    /// Fails (rather than wrapping the index) when one surface has 2^32 vertices or more.
-    pub fn of(tris: &[Triangle]) -> std::io::Result<Indexed> {
-        let mut index: HashMap<[u64; 3], u32> = HashMap::with_capacity(tris.len());
-        let mut out = Indexed {
-            vertices: Vec::with_capacity(tris.len() / 2 + 3),
-            faces: Vec::with_capacity(tris.len()),
-        };
-        for t in tris {
-            let face = t.map(|p| -> std::io::Result<u32> {
-                let key = p.map(f64::to_bits);
-                if let Some(&k) = index.get(&key) {
-                    return Ok(k);
-                }
-                let k = u32::try_from(out.vertices.len()).map_err(|_| {
-                    std::io::Error::other(format!(
-                        "a surface with more than {} vertices: 32-bit mesh indices cannot \
-                         address them",
-                        u32::MAX
-                    ))
-                })?;
-                out.vertices.push(p);
-                index.insert(key, k);
-                Ok(k)
-            });
-            let [a, b, c] = face;
-            out.faces.push([a?, b?, c?]);
+    /// `written`: the vertices already in the file (the first new vertex gets that index).
+    pub fn of(tris: &[Triangle], seams: &mut Seams, written: u64) -> Indexed {
+        // Local vertex ids, then how many triangles use each undirected edge.
+        let mut local: HashMap<[u64; 3], usize> = HashMap::with_capacity(tris.len());
+        let mut points: Vec<[f64; 3]> = Vec::with_capacity(tris.len() / 2 + 3);
+        let ids: Vec<[usize; 3]> = tris
+            .iter()
+            .map(|t| {
+                t.map(|p| {
+                    *local.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                        points.push(p);
+                        points.len() - 1
+                    })
+                })
+            })
+            .collect();
+        let mut uses: HashMap<(usize, usize), u32> = HashMap::with_capacity(3 * tris.len() / 2);
+        for f in &ids {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
         }
-        Ok(out)
+        let mut boundary = vec![false; points.len()];
+        for (&(a, b), &n) in &uses {
+            if n == 1 {
+                boundary[a] = true;
+                boundary[b] = true;
+            }
+        }
+        let mut out = Indexed::default();
+        let global: Vec<u64> = points
+            .iter()
+            .zip(&boundary)
+            .map(|(p, &on_boundary)| {
+                let key = p.map(f64::to_bits);
+                if on_boundary {
+                    if let Some(&g) = seams.index.get(&key) {
+                        return g;
+                    }
+                }
+                let g = written + out.vertices.len() as u64;
+                out.vertices.push(*p);
+                if on_boundary {
+                    seams.index.insert(key, g);
+                }
+                g
+            })
+            .collect();
+        out.faces = ids.iter().map(|f| f.map(|i| global[i])).collect();
+        out
     }
 }
 
@@ -62,7 +100,7 @@ mod tests {
             [1.0, 1.0, 0.0],
             [0.0, 1.0, 0.0],
         );
-        let m = Indexed::of(&[[a, b, c], [a, c, d]]).unwrap();
+        let m = Indexed::of(&[[a, b, c], [a, c, d]], &mut Seams::default(), 0);
         assert_eq!(m.vertices, vec![a, b, c, d]);
         assert_eq!(m.faces, vec![[0, 1, 2], [0, 2, 3]]);
     }
@@ -71,12 +109,33 @@ mod tests {
     fn nearly_equal_vertices_stay_apart() {
         let a = [0.1 + 0.2, 0.0, 0.0];
         let a2 = [0.3, 0.0, 0.0];
-        let m = Indexed::of(&[
-            [a, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            [a2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-        ])
-        .unwrap();
+        let m = Indexed::of(
+            &[
+                [a, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                [a2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            ],
+            &mut Seams::default(),
+            0,
+        );
         assert_eq!(m.vertices.len(), 4);
         assert_eq!(m.faces[1], [3, 1, 2]);
+    }
+
+    #[test]
+    fn a_later_surface_reuses_the_vertices_of_a_shared_boundary() {
+        // Two squares sharing the edge b–c: the second adds only its two own vertices.
+        let (a, b, c, d) = (
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        );
+        let (e, f) = ([2.0, 0.0, 0.0], [2.0, 1.0, 0.0]);
+        let mut seams = Seams::default();
+        let first = Indexed::of(&[[a, b, c], [a, c, d]], &mut seams, 0);
+        let second = Indexed::of(&[[b, e, f], [b, f, c]], &mut seams, 4);
+        assert_eq!(first.vertices.len(), 4);
+        assert_eq!(second.vertices, vec![e, f]);
+        assert_eq!(second.faces, vec![[1, 4, 5], [1, 5, 2]]);
     }
 }

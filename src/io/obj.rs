@@ -2,22 +2,24 @@
 //!
 //! In: per surface, its id and triangles (wound outwards, see [`crate::mesh`]). Out: an ASCII
 //! OBJ: a comment header (producer, units, coordinate system), then per surface with at least
-//! one triangle an object and a group named `surface_<id>`, its vertices (`v x y z`, shared
-//! within the surface: bit-identical vertices merged, see [`super::indexed`]) and its faces
-//! (`f i j k`, 1-based indices into the whole file's vertex list, in the triangles' vertex
-//! order, so the winding, counter-clockwise seen from outside, is kept). Coordinates are
+//! one triangle an object and a group named `surface_<id>`, the vertices it adds (`v x y z`:
+//! bit-identical vertices merged within the surface, and with earlier surfaces where their
+//! boundaries meet, see [`super::indexed`]) and its faces (`f i j k`, 1-based indices into
+//! the whole file's vertex list, in the triangles' vertex order, so the winding,
+//! counter-clockwise seen from outside, is kept). Coordinates are
 //! written as the shortest decimal that reads back to the same f64: exact, and the same bytes
-//! for the same triangles. Nothing is held beyond one surface.
+//! for the same triangles. Nothing is held beyond one surface but the boundary vertices.
 
 use std::io::{self, Write};
 
-use super::indexed::Indexed;
+use super::indexed::{Indexed, Seams};
 use crate::mesh::Triangle;
 
 pub struct ObjWriter<W: Write> {
     out: W,
     vertices: u64,
     faces: u64,
+    seams: Seams,
 }
 
 impl<W: Write> ObjWriter<W> {
@@ -30,6 +32,7 @@ impl<W: Write> ObjWriter<W> {
             out,
             vertices: 0,
             faces: 0,
+            seams: Seams::default(),
         })
     }
 
@@ -39,22 +42,15 @@ impl<W: Write> ObjWriter<W> {
         if tris.is_empty() {
             return Ok(());
         }
-        let m = Indexed::of(tris)?;
+        let m = Indexed::of(tris, &mut self.seams, self.vertices);
         let mut buf = Vec::with_capacity(40 * m.vertices.len() + 24 * m.faces.len() + 64);
         writeln!(buf, "o surface_{id}")?;
         writeln!(buf, "g surface_{id}")?;
         for v in &m.vertices {
             writeln!(buf, "v {} {} {}", v[0], v[1], v[2])?;
         }
-        let base = self.vertices + 1;
         for f in &m.faces {
-            writeln!(
-                buf,
-                "f {} {} {}",
-                base + u64::from(f[0]),
-                base + u64::from(f[1]),
-                base + u64::from(f[2])
-            )?;
+            writeln!(buf, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
         }
         self.out.write_all(&buf)?;
         self.vertices += m.vertices.len() as u64;
@@ -90,13 +86,14 @@ mod tests {
         w.write_surface(3, &[[a, b, c], [a, c, d]]).unwrap();
         w.write_surface(4, &[]).unwrap();
         w.write_surface(7, &[[b, c, d]]).unwrap();
-        assert_eq!(w.counts(), (7, 3));
+        // Surface 7 lies on surface 3's boundary vertices: it adds none of its own.
+        assert_eq!(w.counts(), (4, 3));
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         assert_eq!(
             text,
             "# bskin test\n# units: mm\n\
              o surface_3\ng surface_3\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 -0.5\nf 1 2 3\nf 1 3 4\n\
-             o surface_7\ng surface_7\nv 1 0 0\nv 1 1 0\nv 0 1 -0.5\nf 5 6 7\n"
+             o surface_7\ng surface_7\nf 2 3 4\n"
         );
     }
 

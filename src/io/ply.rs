@@ -6,19 +6,20 @@
 //! `double x, y, z` and `element face F` with `list uchar int vertex_indices`), the V vertices
 //! (24 bytes each) and the F faces (13 bytes each: the count 3, then three int32 indices, in
 //! the triangles' vertex order, so the winding is kept). Vertices are shared within a surface
-//! (bit-identical ones merged, see [`super::indexed`]); coordinates are the exact f64 values.
+//! and with earlier surfaces where their boundaries meet (bit-identical ones merged, see
+//! [`super::indexed`]); coordinates are the exact f64 values.
 //!
 //! The header needs V and F before the bodies, but meshes of real CT can hold millions of
 //! triangles: the vertex and face bodies are streamed into two anonymous temporary files (in
 //! a directory of the caller's choice, normally the output directory; they vanish when closed,
 //! even if the process is killed) and copied behind the header by [`PlyWriter::finish`]. Memory
-//! holds one surface at a time. Deterministic: the same triangles give the same bytes.
+//! holds one surface at a time, and the boundary vertices. Deterministic: the same triangles give the same bytes.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
-use super::indexed::Indexed;
+use super::indexed::{Indexed, Seams};
 use crate::mesh::Triangle;
 
 pub struct PlyWriter<W: Write> {
@@ -28,6 +29,7 @@ pub struct PlyWriter<W: Write> {
     face_body: BufWriter<File>,
     vertices: u64,
     faces: u64,
+    seams: Seams,
 }
 
 impl<W: Write> PlyWriter<W> {
@@ -41,6 +43,7 @@ impl<W: Write> PlyWriter<W> {
             face_body: BufWriter::with_capacity(1 << 16, tempfile::tempfile_in(scratch_dir)?),
             vertices: 0,
             faces: 0,
+            seams: Seams::default(),
         })
     }
 
@@ -49,14 +52,13 @@ impl<W: Write> PlyWriter<W> {
         if tris.is_empty() {
             return Ok(());
         }
-        let m = Indexed::of(tris)?;
+        let m = Indexed::of(tris, &mut self.seams, self.vertices);
         let total = self.vertices + m.vertices.len() as u64;
         if total > i32::MAX as u64 {
             return Err(io::Error::other(
                 "more than 2^31 − 1 vertices: PLY int32 indices cannot address them",
             ));
         }
-        let base = self.vertices as i32;
         let mut buf = Vec::with_capacity(24 * m.vertices.len());
         for v in &m.vertices {
             for c in v {
@@ -68,7 +70,8 @@ impl<W: Write> PlyWriter<W> {
         for f in &m.faces {
             buf.push(3u8);
             for &i in f {
-                buf.extend_from_slice(&(base + i as i32).to_le_bytes());
+                // Below 2^31 − 1: checked above against the vertex count.
+                buf.extend_from_slice(&(i as i32).to_le_bytes());
             }
         }
         self.face_body.write_all(&buf)?;
@@ -135,24 +138,25 @@ mod tests {
         let mut w = PlyWriter::new(Vec::new(), "bskin test", dir.path()).unwrap();
         w.write_surface(2, &[[a, b, c], [a, c, d]]).unwrap();
         w.write_surface(5, &[[b, c, d]]).unwrap();
-        assert_eq!(w.counts(), (7, 3));
+        // Surface 5 lies on surface 2's boundary vertices: it adds none of its own.
+        assert_eq!(w.counts(), (4, 3));
         let bytes = w.finish().unwrap();
         let end = b"end_header\n";
         let at = bytes.windows(end.len()).position(|x| x == end).unwrap() + end.len();
         let header = std::str::from_utf8(&bytes[..at]).unwrap();
         assert!(header.starts_with("ply\nformat binary_little_endian 1.0\ncomment bskin test\n"));
         assert!(header.contains("comment surface 2 faces 0 2\ncomment surface 5 faces 2 1\n"));
-        assert!(header.contains("element vertex 7\n") && header.contains("element face 3\n"));
+        assert!(header.contains("element vertex 4\n") && header.contains("element face 3\n"));
         let body = &bytes[at..];
-        assert_eq!(body.len(), 7 * 24 + 3 * 13);
+        assert_eq!(body.len(), 4 * 24 + 3 * 13);
         let f64_at = |k: usize| f64::from_le_bytes(body[8 * k..8 * k + 8].try_into().unwrap());
         assert_eq!([f64_at(9), f64_at(10), f64_at(11)], d);
-        let faces = &body[7 * 24..];
+        let faces = &body[4 * 24..];
         let i32_at = |o: usize| i32::from_le_bytes(faces[o..o + 4].try_into().unwrap());
         assert_eq!(faces[0], 3);
         assert_eq!([i32_at(1), i32_at(5), i32_at(9)], [0, 1, 2]);
         assert_eq!(faces[26], 3);
-        assert_eq!([i32_at(27), i32_at(31), i32_at(35)], [4, 5, 6]);
+        assert_eq!([i32_at(27), i32_at(31), i32_at(35)], [1, 2, 3]);
         // Nothing left in the scratch directory.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
     }
