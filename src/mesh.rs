@@ -172,29 +172,29 @@ impl End {
             .map(|i| dist2(&points[i], &points[(i + 1) % m]).sqrt())
             .sum();
         let h = period / us.len() as f64;
-        // A quarter of each point's expected step (from the previous point; point 0's from
-        // the last), and what the points after i need of it before the loop closes at
-        // t_0 + period: points that project past the close (onto the curve's start again,
-        // where the loop returns beside a ridge's tip) keep that much room.
-        let least: Vec<f64> = (0..m)
+        // Each point's expected step from the previous one (point 0's from the last). Points
+        // move on by at least a quarter of it, and keep a quarter of each later step as room
+        // before the loop closes at t_0 + period: points that project past the close (onto
+        // the curve's start again, where the loop returns beside a ridge's tip) still fit.
+        let steps: Vec<f64> = (0..m)
             .map(|i| {
-                0.25 * period * dist2(&points[i], &points[(i + m - 1) % m]).sqrt()
-                    / length.max(1e-300)
+                period * dist2(&points[i], &points[(i + m - 1) % m]).sqrt() / length.max(1e-300)
             })
             .collect();
         let mut reserve = vec![0.0; m + 1];
         for i in (0..m).rev() {
-            reserve[i] = reserve[i + 1] + least[(i + 1) % m];
+            reserve[i] = reserve[i + 1] + 0.25 * steps[(i + 1) % m];
         }
         let mut t = Vec::with_capacity(m + 1);
         for (i, p) in points.iter().enumerate() {
             let expect = (length > 0.0).then(|| match i {
                 // The loop's first point is the fitted curve's, at u = 0.
                 0 => (0.0, 4.0 * h, length / period),
-                _ => {
-                    let step = period * dist2(p, &points[i - 1]).sqrt() / length;
-                    (t[i - 1] + step, 3.0 * step + 4.0 * h, length / period)
-                }
+                _ => (
+                    t[i - 1] + steps[i],
+                    3.0 * steps[i] + 4.0 * h,
+                    length / period,
+                ),
             });
             let raw = project_u(s, us, &boundary, v, p, expect);
             if i == 0 {
@@ -206,10 +206,11 @@ impl End {
             // A point that projects behind the previous one (where the curve rounds the tip
             // of a ridge loop, or backs along a slit) still moves on by a little: two points
             // at one parameter would share their row vertices (see `slit_samples`).
+            let least = 0.25 * steps[i];
             let next = if step < 0.5 * period {
-                prev + step.max(least[i])
+                prev + step.max(least)
             } else {
-                prev + least[i]
+                prev + least
             };
             t.push(next.min(t[0] + period - reserve[i]).max(prev));
         }
@@ -238,7 +239,7 @@ impl End {
     /// spaced samples are added where fewer lie there.
     fn slit_samples(&self, us: &[f64], period: f64) -> Vec<f64> {
         use std::collections::HashMap;
-        let key = |p: &P3| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+        let key = |p: &P3| p.map(f64::to_bits);
         let mut first: HashMap<[u64; 3], usize> = HashMap::new();
         let mut out = Vec::new();
         for (j, p) in self.points.iter().enumerate() {

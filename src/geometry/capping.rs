@@ -107,8 +107,8 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
                 Some(lp) => Intermediate::Loop(lp),
                 None => {
                     warnings.push(format!(
-                        "outer contour: not star-shaped around its innermost point {p:?} and \
-                         no ridge path inside it; capped at the point (the cap may fold)"
+                        "contour not star-shaped around its innermost point {p:?} and no \
+                         ridge path inside it; capped at the point (the cap may fold)"
                     ));
                     Intermediate::Point(p)
                 }

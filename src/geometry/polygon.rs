@@ -156,7 +156,8 @@ fn no_edges_meeting(
     true
 }
 
-fn orient(a: Point, b: Point, c: Point) -> f64 {
+/// Twice the signed area of the triangle abc: positive when c lies left of a→b.
+pub fn orient(a: Point, b: Point, c: Point) -> f64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 

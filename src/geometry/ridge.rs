@@ -19,7 +19,8 @@
 //! path stay inside the contour and the path is simple; then compressed like the contours.
 
 use super::polygon::{
-    boundary_distance, contains, dist, perimeter, point_segment_distance, segments_intersect, Point,
+    boundary_distance, contains, dist, orient, perimeter, point_segment_distance,
+    segments_intersect, Point,
 };
 use super::simplify::mark;
 
@@ -47,8 +48,7 @@ pub fn is_star_around(contour: &[Point], p: Point, slack: f64) -> bool {
     (0..n).all(|i| {
         let (a, b) = (contour[i], contour[(i + 1) % n]);
         let len = dist(a, b);
-        let cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
-        len == 0.0 || cross >= -slack * len
+        len == 0.0 || orient(a, b, p) >= -slack * len
     })
 }
 
@@ -193,13 +193,12 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64) -> Option<Vec<Point>> 
 /// and a point within `eps` (mm) of a line counts as on it: resampled points lie on the
 /// contour's edges only within rounding.
 fn crosses(a: Point, b: Point, c: Point, d: Point, eps: f64) -> bool {
-    let orient = |p: Point, q: Point, r: Point| {
-        let x = (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]);
-        let e = eps * dist(p, q);
+    let side = |p: Point, q: Point, r: Point| {
+        let (x, e) = (orient(p, q, r), eps * dist(p, q));
         (x > e) as i8 - (x < -e) as i8
     };
-    let (o1, o2) = (orient(a, b, c), orient(a, b, d));
-    let (o3, o4) = (orient(c, d, a), orient(c, d, b));
+    let (o1, o2) = (side(a, b, c), side(a, b, d));
+    let (o3, o4) = (side(c, d, a), side(c, d, b));
     o1 * o2 < 0 && o3 * o4 < 0
 }
 

@@ -200,8 +200,7 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     let void = ccw_in(frame, section, holes);
                     let caps = cap(&void[0], &[], cell_mm).map_err(|e| geometry(e, what()))?;
                     for w in &caps.warnings {
-                        let w = w.replacen("outer contour", "hole contour (closing alone)", 1);
-                        ctl.warn(format!("slice {}: {w}", section.index));
+                        ctl.warn(format!("slice {}: hole closing alone: {w}", section.index));
                     }
                     Ok(Solved::Cap {
                         outer: None,
