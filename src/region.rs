@@ -1,7 +1,8 @@
 //! Single-branching regions (METHOD.md §3, end): after correspondence and branching, every
 //! surface is a chain of closed curves linked 1-to-1, from bottom to top. Each curve is an
-//! original contour, an intermediate contour on a mid-plane, or a cap (a single point, or a
-//! ridge loop when an annulus closes). Points are 3-D patient mm.
+//! original contour, an intermediate contour on a mid-plane, a cap (a single point, or a
+//! ridge loop when an annulus closes), or a keyhole (a contour and holes joined by slits
+//! where a bay closes into a hole). Points are 3-D patient mm.
 //!
 //! Invariants: a region has at least two curves; all its loops have the same orientation seen
 //! from the slice normal (counter-clockwise for outer walls, clockwise for hole walls); a
@@ -17,6 +18,9 @@ pub enum CurveOrigin {
     Intermediate { below: usize, above: usize },
     /// Where a region closes off beyond its last contour (see `capping::cap_height`).
     Cap { slice: usize },
+    /// A contour joined with some of its holes by slits (see `geometry::keyhole`): the
+    /// contours' points count in the regions that start or end on them.
+    Keyhole { slice: usize },
 }
 
 #[derive(Clone, Debug, PartialEq)]

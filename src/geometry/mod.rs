@@ -9,6 +9,7 @@ pub mod capping;
 pub mod conform;
 pub mod contours;
 pub mod distance_map;
+pub mod keyhole;
 pub mod marching_squares;
 pub mod overlap;
 pub mod polygon;

@@ -2,7 +2,10 @@
 //! for each adjacent pair this stage links contours whose regions overlap (projected along
 //! the normal), and splits the overlap graph into branching problems: 1-to-1 links, m-to-n
 //! branchings, and caps (a contour with no counterpart). Outer contours link by their
-//! material (outer minus its holes); holes link to holes by the voids they bound.
+//! material (outer minus its holes); holes link to holes by the voids they bound. A hole
+//! with no hole to link to whose void opens onto the other section's outside (a bay closing
+//! into a hole, or a hole opening into a bay) joins its outer contour in a keyhole instead
+//! of being capped alone (see [`crate::geometry::keyhole`]).
 //!
 //! Only two sections are alive here at a time; each leaves inside the transitions that need
 //! it and is dropped after the next one arrives.
@@ -14,8 +17,9 @@ use crossbeam_channel::Sender;
 
 use super::{Control, StageStats};
 use crate::geometry::contours::nesting;
-use crate::geometry::overlap::{regions_overlap, Region as Material};
-use crate::geometry::polygon::{bbox, Point};
+use crate::geometry::keyhole::{slits, Slit};
+use crate::geometry::overlap::{overlap_area, regions_overlap, Region as Material};
+use crate::geometry::polygon::{bbox, perimeter, signed_area, Point};
 use crate::section::Section;
 use crate::{Error, Result};
 
@@ -28,8 +32,12 @@ pub enum Side {
     Above,
 }
 
+/// A hole joins a keyhole when at least this fraction of its void lies outside the other
+/// section's contour: less, and it is a cavity starting inside the material, capped alone.
+pub const MIN_OPEN_FRACTION: f64 = 0.02;
+
 /// One problem between two adjacent sections. Indices are contour indices in their section.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Problem {
     /// One contour below continues as one contour above.
     Link {
@@ -42,6 +50,18 @@ pub enum Problem {
         hole: bool,
         lower: Vec<usize>,
         upper: Vec<usize>,
+    },
+    /// One outer contour continuing as one, where holes of either (or both) have no hole to
+    /// link to and open onto the other contour's outside. Each side's `holes` join its
+    /// contour by `slits` (in the section's plane; ring 0 is the contour, ring `k + 1` is
+    /// `holes[k]`) into one loop, where that side's regions end or start.
+    Keyhole {
+        lower: usize,
+        upper: usize,
+        lower_holes: Vec<usize>,
+        lower_slits: Vec<Slit>,
+        upper_holes: Vec<usize>,
+        upper_slits: Vec<Slit>,
     },
     /// Contours of one section with no counterpart on `side`: an outer contour with those of
     /// its holes that end with it (closed together, like the top of a flat torus), or a lone
@@ -83,8 +103,10 @@ fn boxes_meet(a: [f64; 4], b: [f64; 4]) -> bool {
     a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
 }
 
-/// The problems between `lower` and `upper` (both present).
-pub fn correspond(lower: &Section, upper: &Section) -> Vec<Problem> {
+/// The problems between `lower` and `upper` (both present). `blocked` flags the lower
+/// contours that start here from a keyhole (the previous transition's upper side): their
+/// regions have one curve yet, so they cannot end in another keyhole at once.
+pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Problem> {
     let lo: Vec<&[Point]> = lower.contours.iter().map(|c| c.points.as_slice()).collect();
     // The upper contours projected along the normal into the lower section's plane.
     let up_owned: Vec<Vec<Point>> = upper
@@ -179,7 +201,161 @@ pub fn correspond(lower: &Section, upper: &Section) -> Vec<Problem> {
     problems.extend(caps(lower, &la, &ending, Side::Above));
     let starting: Vec<bool> = (0..up.len()).map(|j| !linked[m + j]).collect();
     problems.extend(caps(upper, &ua, &starting, Side::Below));
-    problems
+    let holes = |s: &Section| s.contours.iter().map(|c| c.hole).collect::<Vec<bool>>();
+    let lower_side = View {
+        pts: &lo,
+        arr: &la,
+        hole: holes(lower),
+    };
+    let upper_side = View {
+        pts: &up,
+        arr: &ua,
+        hole: holes(upper),
+    };
+    join_keyholes(problems, &lower_side, &upper_side, blocked)
+}
+
+/// One section's contours as [`join_keyholes`] sees them (in the lower section's plane).
+struct View<'a> {
+    pts: &'a [&'a [Point]],
+    arr: &'a Arranged,
+    hole: Vec<bool>,
+}
+
+/// The fraction of hole `h`'s void outside the polygon `other`.
+fn open_fraction(h: &[Point], other: &[Point]) -> f64 {
+    let area = signed_area(h).abs();
+    if area.is_nan() || area <= 0.0 {
+        return 0.0;
+    }
+    let cell = (area.sqrt() / 64.0).max(1e-3);
+    let shared = overlap_area(&Material::filled(h), &Material::filled(other), cell);
+    (1.0 - shared / area).clamp(0.0, 1.0)
+}
+
+/// Where slits may end, in mm along the rings: fine against the hole's size, as a mouth may
+/// be narrow, but not below the contours' own precision.
+fn slit_step(hole: &[Point]) -> f64 {
+    (perimeter(hole) / 256.0).max(0.02)
+}
+
+/// The holes of `own`'s contour `k` among `lone` that open onto the outside of `other`,
+/// each kept only if it can join by a slit (with those kept before it), and their slits.
+fn joinable(own: &View, k: usize, lone: &[usize], other: &[Point]) -> (Vec<usize>, Vec<Slit>) {
+    let candidates: Vec<usize> = lone
+        .iter()
+        .copied()
+        .filter(|&h| {
+            own.arr.parent[h] == Some(k) && open_fraction(own.pts[h], other) >= MIN_OPEN_FRACTION
+        })
+        .collect();
+    let mut kept: Vec<usize> = Vec::new();
+    let mut cuts = Vec::new();
+    for &c in &candidates {
+        let mut trial = kept.clone();
+        trial.push(c);
+        let joined: Vec<&[Point]> = trial.iter().map(|&h| own.pts[h]).collect();
+        let others: Vec<&[Point]> = (0..own.pts.len())
+            .filter(|&h| own.hole[h] && own.arr.parent[h] == Some(k) && !trial.contains(&h))
+            .map(|h| own.pts[h])
+            .collect();
+        if let Some(s) = slits(own.pts[k], &joined, &others, other, slit_step(own.pts[c])) {
+            kept = trial;
+            cuts = s;
+        }
+    }
+    (kept, cuts)
+}
+
+/// Turns each outer 1-to-1 link whose lone holes open onto the other contour's outside
+/// into a keyhole, and drops those holes' caps.
+fn join_keyholes(
+    problems: Vec<Problem>,
+    lower: &View,
+    upper: &View,
+    blocked: &[bool],
+) -> Vec<Problem> {
+    let lone = |side: Side| -> Vec<usize> {
+        problems
+            .iter()
+            .filter_map(|p| match p {
+                Problem::Cap {
+                    side: s,
+                    outer: None,
+                    holes,
+                } if *s == side => holes.first().copied(),
+                _ => None,
+            })
+            .collect()
+    };
+    // Lone holes of the lower section cap above it; those of the upper one below it.
+    let (lone_lower, lone_upper) = (lone(Side::Above), lone(Side::Below));
+    if lone_lower.is_empty() && lone_upper.is_empty() {
+        return problems;
+    }
+    let mut joined_lower: Vec<usize> = Vec::new();
+    let mut joined_upper: Vec<usize> = Vec::new();
+    let mut out: Vec<Problem> = problems
+        .iter()
+        .map(|p| match *p {
+            Problem::Link {
+                hole: false,
+                lower: i,
+                upper: j,
+            } => {
+                let (lower_holes, lower_slits) = if blocked.get(i).copied().unwrap_or(false) {
+                    (Vec::new(), Vec::new())
+                } else {
+                    joinable(lower, i, &lone_lower, upper.pts[j])
+                };
+                let (upper_holes, upper_slits) = joinable(upper, j, &lone_upper, lower.pts[i]);
+                if lower_holes.is_empty() && upper_holes.is_empty() {
+                    return p.clone();
+                }
+                joined_lower.extend(&lower_holes);
+                joined_upper.extend(&upper_holes);
+                Problem::Keyhole {
+                    lower: i,
+                    upper: j,
+                    lower_holes,
+                    lower_slits,
+                    upper_holes,
+                    upper_slits,
+                }
+            }
+            _ => p.clone(),
+        })
+        .collect();
+    out.retain(|p| match p {
+        Problem::Cap {
+            side,
+            outer: None,
+            holes,
+        } => !holes.iter().any(|h| match side {
+            Side::Above => joined_lower.contains(h),
+            Side::Below => joined_upper.contains(h),
+        }),
+        _ => true,
+    });
+    out
+}
+
+/// The contours of `upper` that start from a keyhole in `problems` (its upper sides).
+pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<bool> {
+    let mut flags = vec![false; n];
+    for p in problems {
+        if let Problem::Keyhole {
+            upper, upper_holes, ..
+        } = p
+        {
+            if !upper_holes.is_empty() {
+                for &k in std::iter::once(upper).chain(upper_holes) {
+                    flags[k] = true;
+                }
+            }
+        }
+    }
+    flags
 }
 
 /// Cap problems for the contours of `section` flagged in `free` (no counterpart on `side`).
@@ -267,6 +443,7 @@ pub fn run(
         ..Default::default()
     };
     let mut prev: Option<Arc<Section>> = None;
+    let mut blocked: Vec<bool> = Vec::new();
     let mut spacing = fallback_spacing;
     let send = |t: Transition| out.send(t).is_ok();
     for section in input {
@@ -286,7 +463,8 @@ pub fn run(
                     ),
                 });
             }
-            let problems = correspond(&lower, &section);
+            let problems = correspond(&lower, &section, &blocked);
+            blocked = keyholed_upper(&problems, section.contours.len());
             stats.busy += t.elapsed();
             // The bottom caps of the first section wait for the first spacing.
             if stats.items == 1 && !send(end_transition(&lower, Side::Below, spacing)) {
@@ -329,5 +507,125 @@ fn end_transition(section: &Arc<Section>, side: Side, spacing: f64) -> Transitio
             spacing,
             problems,
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::section::{Contour, SliceFrame, SliceSource};
+
+    fn section(index: usize, contours: Vec<(Vec<Point>, bool)>) -> Section {
+        Section {
+            index,
+            frame: SliceFrame {
+                origin: [0.0, 0.0, index as f64],
+                row: [1.0, 0.0, 0.0],
+                col: [0.0, 1.0, 0.0],
+            },
+            source: SliceSource {
+                path: format!("test/{index}").into(),
+                frame: None,
+            },
+            contours: contours
+                .into_iter()
+                .map(|(mut points, hole)| {
+                    if (signed_area(&points) < 0.0) != hole {
+                        points.reverse();
+                    }
+                    Contour { points, hole }
+                })
+                .collect(),
+        }
+    }
+
+    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Point> {
+        vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    /// A block with a cavity that opens through its top edge by a mouth (x 18–22).
+    fn bay() -> Vec<Point> {
+        vec![
+            [0.0, 0.0],
+            [40.0, 0.0],
+            [40.0, 20.0],
+            [22.0, 20.0],
+            [22.0, 18.0],
+            [30.0, 18.0],
+            [30.0, 8.0],
+            [10.0, 8.0],
+            [10.0, 18.0],
+            [18.0, 18.0],
+            [18.0, 20.0],
+            [0.0, 20.0],
+        ]
+    }
+
+    fn block_with_hole() -> Section {
+        section(
+            1,
+            vec![
+                (rect(0.0, 0.0, 40.0, 20.0), false),
+                (rect(10.0, 8.0, 30.0, 17.0), true),
+            ],
+        )
+    }
+
+    #[test]
+    fn a_bay_closing_into_a_hole_is_a_keyhole_not_a_cap() {
+        let (lower, upper) = (section(0, vec![(bay(), false)]), block_with_hole());
+        let problems = correspond(&lower, &upper, &[]);
+        let [Problem::Keyhole {
+            lower: 0,
+            upper: 0,
+            lower_holes,
+            upper_holes,
+            upper_slits,
+            ..
+        }] = problems.as_slice()
+        else {
+            panic!("{problems:?}");
+        };
+        assert!(lower_holes.is_empty());
+        assert_eq!(upper_holes, &vec![1]);
+        // Across the closed mouth, from the block's top edge to the hole's.
+        assert_eq!((upper_slits[0].from.ring, upper_slits[0].to.ring), (0, 1));
+        // The other way up: the hole opens into the bay, the lower side is the keyhole.
+        let (lower, upper) = (block_with_hole(), section(2, vec![(bay(), false)]));
+        let problems = correspond(&lower, &upper, &[]);
+        assert!(
+            matches!(problems.as_slice(), [Problem::Keyhole { lower_holes, upper_holes, .. }]
+                if lower_holes == &vec![1] && upper_holes.is_empty()),
+            "{problems:?}"
+        );
+        // Unless the lower contour starts from a keyhole itself: then the hole caps alone.
+        let problems = correspond(&lower, &upper, &[true, true]);
+        assert!(
+            matches!(
+                problems.as_slice(),
+                [Problem::Link { .. }, Problem::Cap { outer: None, .. }]
+            ),
+            "{problems:?}"
+        );
+    }
+
+    #[test]
+    fn a_cavity_starting_inside_the_material_caps_alone() {
+        let lower = section(0, vec![(rect(0.0, 0.0, 40.0, 20.0), false)]);
+        let problems = correspond(&lower, &block_with_hole(), &[]);
+        assert!(
+            matches!(
+                problems.as_slice(),
+                [
+                    Problem::Link { hole: false, .. },
+                    Problem::Cap {
+                        side: Side::Below,
+                        outer: None,
+                        ..
+                    }
+                ]
+            ),
+            "{problems:?}"
+        );
     }
 }

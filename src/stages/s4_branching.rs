@@ -17,6 +17,7 @@ use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
+use crate::geometry::keyhole::{keyhole_loop, with_feet, Slit};
 use crate::geometry::polygon::Point;
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
@@ -40,6 +41,41 @@ pub enum Solved {
         outer: Option<Intermediate>,
         holes: Vec<Intermediate>,
     },
+    /// A link whose lower and/or upper side is a keyhole.
+    Keyhole {
+        lower: Option<Keyhole>,
+        upper: Option<Keyhole>,
+    },
+}
+
+/// One side of a keyhole problem, in patient mm: the contour and its joined holes with the
+/// slits' feet inserted, and the loop that joins them.
+pub struct Keyhole {
+    pub rings: Vec<Vec<[f64; 3]>>,
+    pub joined: Vec<[f64; 3]>,
+}
+
+/// Builds the keyhole of `section`'s contour `k` and `holes` from the contours' own patient
+/// points (so the loop shares them bit for bit), the slits sampled every `step` mm.
+fn keyhole_of(section: &Section, k: usize, holes: &[usize], slits: &[Slit], step: f64) -> Keyhole {
+    let lerp = |a: [f64; 3], b: [f64; 3], t: f64| -> [f64; 3] {
+        std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
+    };
+    let rings: Vec<Vec<[f64; 3]>> = std::iter::once(k)
+        .chain(holes.iter().copied())
+        .enumerate()
+        .map(|(r, c)| with_feet(&contour_curve(section, c).points, r, slits, lerp))
+        .collect();
+    let refs: Vec<&[[f64; 3]]> = rings.iter().map(|r| r.as_slice()).collect();
+    let pieces = |a: [f64; 3], b: [f64; 3]| {
+        let len = (0..3).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
+        ((len / step).ceil() as usize).clamp(1, 4096)
+    };
+    let between = |a: [f64; 3], b: [f64; 3], n: usize| -> Vec<[f64; 3]> {
+        (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
+    };
+    let joined = keyhole_loop(&refs, slits, pieces, between);
+    Keyhole { rings, joined }
 }
 
 fn lift(frame: &SliceFrame, p: Point, dz: f64) -> [f64; 3] {
@@ -130,6 +166,25 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
     };
     match p {
         Problem::Link { .. } => Ok(Solved::Link),
+        Problem::Keyhole {
+            lower,
+            upper,
+            lower_holes,
+            lower_slits,
+            upper_holes,
+            upper_slits,
+        } => {
+            let (lo, up) = both(t)?;
+            // Slits sampled at the distance-map's resolution, like the ridge loops.
+            let step = 2.0 * cell_mm;
+            let side = |s: &Section, k: usize, holes: &[usize], slits: &[Slit]| {
+                (!holes.is_empty()).then(|| keyhole_of(s, k, holes, slits, step))
+            };
+            Ok(Solved::Keyhole {
+                lower: side(lo, *lower, lower_holes, lower_slits),
+                upper: side(up, *upper, upper_holes, upper_slits),
+            })
+        }
         Problem::Branch { lower, upper, .. } => {
             let (Some(lo), Some(up)) = (&t.lower, &t.upper) else {
                 return Err(Error::Internal(
@@ -324,7 +379,16 @@ impl Assembler {
                     let (lo, up) = both(t)?;
                     let mut r = self.take(*lower, lo)?;
                     r.curves.push(contour_curve(up, *upper));
-                    if self.max_curves >= 2 && r.curves.len() >= self.max_curves {
+                    // Not where the next transition ends the chain in a keyhole: that
+                    // inserts the slits' feet into this contour, and a segment ending here
+                    // would already be gone.
+                    let keyhole_next = ahead.first().is_some_and(|n| {
+                        n.problems.iter().any(|p| {
+                            matches!(p, Problem::Keyhole { lower, lower_holes, .. }
+                                if lower == upper && !lower_holes.is_empty())
+                        })
+                    });
+                    if self.max_curves >= 2 && r.curves.len() >= self.max_curves && !keyhole_next {
                         // A long chain: this segment ends here, the next starts on the same
                         // contour (its mesh rows are that contour's points on both sides).
                         let joint = r.curves.last().cloned();
@@ -437,6 +501,81 @@ impl Assembler {
                                 seal: seal.take().unwrap_or_default(),
                                 joint_below: false,
                             });
+                        }
+                    }
+                }
+                (
+                    Problem::Keyhole {
+                        lower,
+                        upper,
+                        lower_holes,
+                        upper_holes,
+                        ..
+                    },
+                    Solved::Keyhole {
+                        lower: kl,
+                        upper: ku,
+                    },
+                ) => {
+                    let (lo, up) = both(t)?;
+                    let mut r = match kl {
+                        None => self.take(*lower, lo)?,
+                        Some(k) => {
+                            // The regions of the contour and of its joined holes end on
+                            // them, with the slits' feet inserted; one starts on the loop.
+                            let ids = std::iter::once(lower).chain(lower_holes);
+                            for (&c, ring) in ids.zip(k.rings) {
+                                let mut r = self.take(c, lo)?;
+                                if r.curves.len() < 2 {
+                                    return Err(Error::Internal(format!(
+                                        "slice {}: contour {c} ends in a keyhole where it starts",
+                                        lo.index
+                                    )));
+                                }
+                                if let Some(last) = r.curves.last_mut() {
+                                    last.points = ring;
+                                }
+                                self.close(r, &mut closed);
+                            }
+                            Region {
+                                id: 0,
+                                hole: false,
+                                curves: vec![RegionCurve {
+                                    points: k.joined,
+                                    origin: CurveOrigin::Keyhole { slice: lo.index },
+                                }],
+                                seal: Vec::new(),
+                                joint_below: false,
+                            }
+                        }
+                    };
+                    match ku {
+                        None => {
+                            r.curves.push(contour_curve(up, *upper));
+                            next[*upper] = Some(r);
+                        }
+                        Some(k) => {
+                            r.curves.push(RegionCurve {
+                                points: k.joined,
+                                origin: CurveOrigin::Keyhole { slice: up.index },
+                            });
+                            self.close(r, &mut closed);
+                            let ids = std::iter::once(upper).chain(upper_holes);
+                            for (n, (&c, points)) in ids.zip(k.rings).enumerate() {
+                                next[c] = Some(Region {
+                                    id: 0,
+                                    hole: n > 0,
+                                    curves: vec![RegionCurve {
+                                        points,
+                                        origin: CurveOrigin::Contour {
+                                            slice: up.index,
+                                            contour: c,
+                                        },
+                                    }],
+                                    seal: Vec::new(),
+                                    joint_below: false,
+                                });
+                            }
                         }
                     }
                 }

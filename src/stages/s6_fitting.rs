@@ -78,7 +78,7 @@ pub fn describe(region: &Region) -> String {
         .curves
         .iter()
         .map(|c| match c.origin {
-            Contour { slice, .. } | Cap { slice } => slice,
+            Contour { slice, .. } | Cap { slice } | Keyhole { slice } => slice,
             Intermediate { below, .. } => below,
         })
         .collect();

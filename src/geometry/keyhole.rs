@@ -1,0 +1,539 @@
+//! Keyholes (beyond the paper): a contour and some of its holes joined into one loop by
+//! zero-width slits.
+//!
+//! Where a bay of a contour closes into a hole one slice up (or a hole opens into a bay), the
+//! hole has no hole on the other slice to continue from, and capping it alone hangs a dome
+//! from the hole into the bay, through which the outer wall passes as it sweeps from the
+//! bay's rim up to the closed mouth. The topology that changes there is the void's, not the
+//! material's: the exterior on one slice is the exterior and the hole on the other. Joined
+//! to its contour by a slit across the closed mouth, the hole becomes part of one loop that
+//! the contour on the other slice skins onto 1-to-1: the bay's walls rise to the hole's
+//! walls, and the two sides of the slit come down to the bay's two mouth corners, an arch
+//! over the mouth.
+//!
+//! In (one plane frame, mm): the contour (counter-clockwise), the holes to join (clockwise),
+//! its other holes (slits must not cross them), and the other slice's contour projected into
+//! this plane: every slit's midpoint must lie outside it, over the void the mouth closes.
+//! Out: one [`Slit`] per hole, as vertex indices, or `None` if some hole has no admissible
+//! slit. [`keyhole_loop`] turns them into the loop for any point type, so the caller can
+//! build it from the contours' own points bit for bit.
+//!
+//! The slit of each hole is the shortest segment from a vertex of the loop so far (the
+//! contour and the holes already joined) to a vertex of the hole that crosses and touches no
+//! contour, hole or earlier slit except at its own two ends, and whose midpoint lies in the
+//! material and outside the other slice's contour.
+
+use super::polygon::{contains, orient, Point};
+
+/// Candidate slits are tried shortest first, in rounds up to this many times the shortest
+/// candidate's length (then all of them).
+const ROUND_FACTORS: [f64; 4] = [2.0, 4.0, 16.0, 64.0];
+
+/// A foot closer than this fraction of its edge's length to a vertex is put on the vertex:
+/// no near-duplicate points in the loops.
+const SNAP: f64 = 0.02;
+
+/// A point on a ring: `t` of the way along edge `edge` (from vertex `edge` to the next);
+/// `t == 0` is the vertex itself. Ring 0 is the contour, ring `k + 1` the `k`-th hole joined.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Foot {
+    pub ring: usize,
+    pub edge: usize,
+    pub t: f64,
+}
+
+/// A slit from a point of the loop so far to a point of the hole it joins.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slit {
+    pub from: Foot,
+    pub to: Foot,
+}
+
+fn at(rings: &[&[Point]], f: Foot) -> Point {
+    let r = rings[f.ring];
+    let (a, b) = (r[f.edge], r[(f.edge + 1) % r.len()]);
+    [a[0] + f.t * (b[0] - a[0]), a[1] + f.t * (b[1] - a[1])]
+}
+
+/// The slits joining `holes` (in order) to `contour`, their ends searched every `step` mm
+/// along the rings; see the module doc.
+pub fn slits(
+    contour: &[Point],
+    holes: &[&[Point]],
+    other_holes: &[&[Point]],
+    outside_of: &[Point],
+    step: f64,
+) -> Option<Vec<Slit>> {
+    if !(step.is_finite() && step > 0.0) {
+        return None;
+    }
+    let mut rings: Vec<&[Point]> = vec![contour];
+    let mut made: Vec<(Point, Point)> = Vec::new();
+    let mut out = Vec::with_capacity(holes.len());
+    for (k, &hole) in holes.iter().enumerate() {
+        if hole.len() < 3 {
+            return None;
+        }
+        rings.push(hole);
+        let h = rings.len() - 1;
+        // Every boundary the slit must keep off: the rings (the hole last), the holes still
+        // to join and the other holes.
+        let walls: Vec<&[Point]> = rings
+            .iter()
+            .copied()
+            .chain(holes[k + 1..].iter().copied())
+            .chain(other_holes.iter().copied())
+            .collect();
+        let admissible = |s: &Slit| {
+            let (a, b) = (at(&rings, s.from), at(&rings, s.to));
+            let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+            contains(contour, mid)
+                && !holes.iter().chain(other_holes).any(|h| contains(h, mid))
+                && !contains(outside_of, mid)
+                && !crosses_walls(a, b, &walls, s)
+                && !made.iter().any(|&(p, q)| touches(a, b, p, q))
+        };
+        let slit = shortest(&rings, h, step, admissible)?;
+        made.push((at(&rings, slit.from), at(&rings, slit.to)));
+        out.push(slit);
+    }
+    Some(out)
+}
+
+/// Where along `a`–`b` (0 to 1) the point closest to `p` lies.
+fn project(a: Point, b: Point, p: Point) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The point of edge `e` of `ring` closest to `p`, as a foot snapped to a vertex when close.
+fn foot(ring_id: usize, ring: &[Point], e: usize, p: Point) -> Foot {
+    let n = ring.len();
+    let t = project(ring[e], ring[(e + 1) % n], p);
+    if t < SNAP {
+        Foot {
+            ring: ring_id,
+            edge: e,
+            t: 0.0,
+        }
+    } else if t > 1.0 - SNAP {
+        Foot {
+            ring: ring_id,
+            edge: (e + 1) % n,
+            t: 0.0,
+        }
+    } else {
+        Foot {
+            ring: ring_id,
+            edge: e,
+            t,
+        }
+    }
+}
+
+/// The nearest points of `ring` to `p` that are local minima of the distance along the
+/// ring (each distinct foot once).
+fn local_feet(ring_id: usize, ring: &[Point], p: Point, out: &mut Vec<Foot>) {
+    let n = ring.len();
+    let d2 = |q: Point| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+    let raw: Vec<(f64, f64)> = (0..n)
+        .map(|e| {
+            let (a, b) = (ring[e], ring[(e + 1) % n]);
+            let t = project(a, b, p);
+            (t, d2([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]))
+        })
+        .collect();
+    for e in 0..n {
+        let (t, _) = raw[e];
+        let interior = t > 0.0 && t < 1.0;
+        // A vertex is a local minimum when the edges either side both end nearest at it.
+        let at_vertex = t == 0.0 && raw[(e + n - 1) % n].0 == 1.0;
+        if interior || at_vertex {
+            let f = foot(ring_id, ring, e, p);
+            if out.last() != Some(&f) {
+                out.push(f);
+            }
+        }
+    }
+}
+
+/// The shortest admissible slit from rings `0..h` to ring `h`, tried in rounds of growing
+/// length among the local minima of the distance from points every `step` mm along either
+/// side to the other (a mouth's narrowest crossing rarely ends at a vertex of either).
+fn shortest(
+    rings: &[&[Point]],
+    h: usize,
+    step: f64,
+    admissible: impl Fn(&Slit) -> bool,
+) -> Option<Slit> {
+    let hole = rings[h];
+    let mut all: Vec<(f64, Slit)> = Vec::new();
+    let mut feet = Vec::new();
+    let len2 = |s: &Slit| {
+        let (a, b) = (at(rings, s.from), at(rings, s.to));
+        (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+    };
+    // Points every `step` along ring `r`, as feet.
+    let samples = |r: usize| -> Vec<Foot> {
+        let ring = rings[r];
+        let n = ring.len();
+        let mut out = Vec::new();
+        for e in 0..n {
+            let (a, b) = (ring[e], ring[(e + 1) % n]);
+            let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let pieces = ((len / step).ceil() as usize).clamp(1, 1 << 16);
+            for k in 0..pieces {
+                let t = k as f64 / pieces as f64;
+                // Samples beside a vertex are the vertex (the next edge's first sample).
+                if k == 0 || (SNAP..=1.0 - SNAP).contains(&t) {
+                    out.push(Foot {
+                        ring: r,
+                        edge: e,
+                        t,
+                    });
+                }
+            }
+        }
+        out
+    };
+    let hole_samples = samples(h);
+    for (r, &ring) in rings.iter().enumerate().take(h) {
+        for from in samples(r) {
+            feet.clear();
+            local_feet(h, hole, at(rings, from), &mut feet);
+            all.extend(
+                feet.iter()
+                    .map(|&to| Slit { from, to })
+                    .map(|s| (len2(&s), s)),
+            );
+        }
+        for &to in &hole_samples {
+            feet.clear();
+            local_feet(r, ring, at(rings, to), &mut feet);
+            all.extend(
+                feet.iter()
+                    .map(|&from| Slit { from, to })
+                    .map(|s| (len2(&s), s)),
+            );
+        }
+    }
+    let key = |s: &Slit| (s.from.ring, s.from.edge, s.to.ring, s.to.edge);
+    all.retain(|c| c.0 > 0.0);
+    // Shortest first; ties in index order, so the choice is deterministic.
+    all.sort_by(|x, y| {
+        x.0.total_cmp(&y.0)
+            .then(key(&x.1).cmp(&key(&y.1)))
+            .then(x.1.from.t.total_cmp(&y.1.from.t))
+            .then(x.1.to.t.total_cmp(&y.1.to.t))
+    });
+    all.dedup_by(|x, y| x.1 == y.1);
+    let min = all.first()?.0;
+    let mut start = 0;
+    for limit in ROUND_FACTORS
+        .iter()
+        .map(|f| f * f * min)
+        .chain(std::iter::once(f64::INFINITY))
+    {
+        let end = all.partition_point(|c| c.0 < limit);
+        if let Some(c) = all[start..end].iter().find(|c| admissible(&c.1)) {
+            return Some(c.1);
+        }
+        start = end;
+    }
+    None
+}
+
+/// Whether `a`–`b` meets an edge of `walls` other than the edges at its own two feet (the
+/// first walls are the rings that the feet of `s` index).
+fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], s: &Slit) -> bool {
+    let lo = [a[0].min(b[0]), a[1].min(b[1])];
+    let hi = [a[0].max(b[0]), a[1].max(b[1])];
+    // The edges a foot lies on: its own edge, and the one before when it is a vertex.
+    let own = |w: usize, i: usize, f: Foot| {
+        let n = walls[w].len();
+        f.ring == w && (i == f.edge || (f.t == 0.0 && (i + 1) % n == f.edge))
+    };
+    walls.iter().enumerate().any(|(w, wall)| {
+        let n = wall.len();
+        (0..n).any(|i| {
+            if own(w, i, s.from) || own(w, i, s.to) {
+                return false;
+            }
+            let (p, q) = (wall[i], wall[(i + 1) % n]);
+            if p[0].max(q[0]) < lo[0]
+                || p[0].min(q[0]) > hi[0]
+                || p[1].max(q[1]) < lo[1]
+                || p[1].min(q[1]) > hi[1]
+            {
+                return false;
+            }
+            touches(a, b, p, q)
+        })
+    })
+}
+
+/// Closed segments `a`–`b` and `p`–`q` meet (a shared end point counts).
+fn touches(a: Point, b: Point, p: Point, q: Point) -> bool {
+    let (o1, o2) = (orient(a, b, p), orient(a, b, q));
+    let (o3, o4) = (orient(p, q, a), orient(p, q, b));
+    if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
+        return true;
+    }
+    let on = |s: Point, t: Point, x: Point, o: f64| {
+        o == 0.0
+            && x[0] >= s[0].min(t[0])
+            && x[0] <= s[0].max(t[0])
+            && x[1] >= s[1].min(t[1])
+            && x[1] <= s[1].max(t[1])
+    };
+    on(a, b, p, o1) || on(a, b, q, o2) || on(p, q, a, o3) || on(p, q, b, o4)
+}
+
+/// Ring `ring` of a keyhole with the feet of `slits` that fall inside its edges inserted
+/// (`lerp(a, b, t)`), so the loop and the contour on its own share every vertex.
+pub fn with_feet<T: Copy>(
+    points: &[T],
+    ring: usize,
+    slits: &[Slit],
+    lerp: impl Fn(T, T, f64) -> T,
+) -> Vec<T> {
+    let n = points.len();
+    let mut inserted: Vec<(usize, f64)> = feet_on(ring, slits)
+        .filter(|f| f.t > 0.0)
+        .map(|f| (f.edge, f.t))
+        .collect();
+    inserted.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    inserted.dedup();
+    let mut out = Vec::with_capacity(n + inserted.len());
+    let mut next = inserted.iter().peekable();
+    for i in 0..n {
+        out.push(points[i]);
+        while let Some(&&(e, t)) = next.peek() {
+            if e != i {
+                break;
+            }
+            out.push(lerp(points[i], points[(i + 1) % n], t));
+            next.next();
+        }
+    }
+    out
+}
+
+fn feet_on(ring: usize, slits: &[Slit]) -> impl Iterator<Item = Foot> + '_ {
+    slits
+        .iter()
+        .flat_map(|s| [s.from, s.to])
+        .filter(move |f| f.ring == ring)
+}
+
+/// Index of foot `f` in its ring after [`with_feet`].
+fn index_after_feet(f: Foot, slits: &[Slit]) -> usize {
+    let mut before: Vec<(usize, f64)> = feet_on(f.ring, slits)
+        .filter(|g| g.t > 0.0 && (g.edge, g.t) < (f.edge, f.t))
+        .map(|g| (g.edge, g.t))
+        .collect();
+    before.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    before.dedup();
+    f.edge + before.len() + usize::from(f.t > 0.0)
+}
+
+/// The keyhole loop of `rings` (the contour, then the joined holes in the order of `slits`,
+/// each already [`with_feet`]): the contour's points, and at each slit's foot the slit's
+/// interior points (`between(a, b, pieces)`: the `pieces − 1` points dividing `a`–`b`
+/// evenly), the hole from the slit's end round to it again, the slit's points back and the
+/// foot again. `pieces(a, b)` says how many pieces a slit is cut into.
+pub fn keyhole_loop<T: Copy>(
+    rings: &[&[T]],
+    slits: &[Slit],
+    pieces: impl Fn(T, T) -> usize,
+    between: impl Fn(T, T, usize) -> Vec<T>,
+) -> Vec<T> {
+    let ends: Vec<(usize, usize)> = slits
+        .iter()
+        .map(|s| {
+            (
+                index_after_feet(s.from, slits),
+                index_after_feet(s.to, slits),
+            )
+        })
+        .collect();
+    let mut out = Vec::new();
+    emit(0, 0, rings, slits, &ends, &pieces, &between, &mut out);
+    out
+}
+
+#[allow(clippy::too_many_arguments)]
+fn emit<T: Copy>(
+    ring: usize,
+    start: usize,
+    rings: &[&[T]],
+    slits: &[Slit],
+    ends: &[(usize, usize)],
+    pieces: &impl Fn(T, T) -> usize,
+    between: &impl Fn(T, T, usize) -> Vec<T>,
+    out: &mut Vec<T>,
+) {
+    let pts = rings[ring];
+    let n = pts.len();
+    for k in 0..n {
+        let i = (start + k) % n;
+        out.push(pts[i]);
+        // Holes joined at this point, in the order they were joined.
+        for (s, &(from, to)) in slits.iter().zip(ends) {
+            if s.from.ring != ring || from != i {
+                continue;
+            }
+            let (a, b) = (pts[i], rings[s.to.ring][to]);
+            let inner = between(a, b, pieces(a, b).max(1));
+            out.extend(inner.iter().copied());
+            emit(s.to.ring, to, rings, slits, ends, pieces, between, out);
+            out.push(b);
+            out.extend(inner.iter().rev().copied());
+            out.push(a);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::polygon::{circle, is_weakly_simple, signed_area};
+
+    fn lerp(a: Point, b: Point, t: f64) -> Point {
+        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+    }
+
+    fn between(a: Point, b: Point, k: usize) -> Vec<Point> {
+        (1..k).map(|s| lerp(a, b, s as f64 / k as f64)).collect()
+    }
+
+    /// A 40 × 20 block with a 10 × 10 hole near its top edge; and the block on the slice
+    /// below, with a bay where the hole is that opens through the top edge, 8 mm wide at
+    /// the mouth.
+    fn bay_and_hole() -> (Vec<Point>, Vec<Point>, Vec<Point>) {
+        let block = vec![[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]];
+        let hole = vec![
+            [15.0, 8.0],
+            [15.0, 18.0],
+            [20.0, 18.0],
+            [25.0, 18.0],
+            [25.0, 8.0],
+        ];
+        let bay = vec![
+            [0.0, 0.0],
+            [40.0, 0.0],
+            [40.0, 20.0],
+            [24.0, 20.0],
+            [24.0, 8.0],
+            [16.0, 8.0],
+            [16.0, 20.0],
+            [0.0, 20.0],
+        ];
+        (block, hole, bay)
+    }
+
+    /// The loop of one contour and its joined holes, checked for what every keyhole is:
+    /// weakly simple, counter-clockwise, with the material's area.
+    fn loop_of(contour: &[Point], holes: &[&[Point]], s: &[Slit]) -> Vec<Point> {
+        let rings: Vec<Vec<Point>> = std::iter::once(contour)
+            .chain(holes.iter().copied())
+            .enumerate()
+            .map(|(r, pts)| with_feet(pts, r, s, lerp))
+            .collect();
+        let refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
+        let l = keyhole_loop(&refs, s, |_, _| 4, between);
+        let want: f64 = signed_area(contour) + holes.iter().map(|h| signed_area(h)).sum::<f64>();
+        assert!(
+            (signed_area(&l) - want).abs() < 1e-9,
+            "{} vs {want}",
+            signed_area(&l)
+        );
+        assert!(is_weakly_simple(&l), "{l:?}");
+        l
+    }
+
+    #[test]
+    fn a_hole_over_a_bay_joins_across_the_closed_mouth() {
+        let (block, hole, bay) = bay_and_hole();
+        let s = slits(&block, &[&hole], &[], &bay, 0.5).expect("a slit exists");
+        // Straight up from the hole's top edge to the block's top edge (from x = 40 to 0),
+        // across the mouth, 2 mm.
+        let (a, b) = (
+            at(&[&block, &hole], s[0].from),
+            at(&[&block, &hole], s[0].to),
+        );
+        assert_eq!((s[0].from.ring, s[0].from.edge, s[0].to.ring), (0, 2, 1));
+        assert!(
+            (a[1] - 20.0).abs() < 1e-12 && (b[1] - 18.0).abs() < 1e-12,
+            "{a:?} {b:?}"
+        );
+        assert!(
+            (a[0] - b[0]).abs() < 1e-9 && a[0] > 16.0 && a[0] < 24.0,
+            "{a:?} {b:?}"
+        );
+        let l = loop_of(&block, &[&hole], &s);
+        // The block and the hole with their feet, the slit's 3 interior points out and
+        // back, the hole's foot and the block's again.
+        let inserted = [s[0].from, s[0].to].iter().filter(|f| f.t > 0.0).count();
+        assert_eq!(l.len(), 4 + 5 + inserted + 3 + 1 + 3 + 1);
+        assert!(l.contains(&a) && l.contains(&b));
+    }
+
+    #[test]
+    fn a_slit_stays_over_the_other_slices_void() {
+        // Below, the block has no bay: there is nothing to open into.
+        let (block, hole, _) = bay_and_hole();
+        assert_eq!(slits(&block, &[&hole], &[], &block, 0.5), None);
+    }
+
+    #[test]
+    fn slits_keep_off_the_other_holes() {
+        let (block, hole, bay) = bay_and_hole();
+        // A thin hole across the whole way out: every other way's midpoint lies over the
+        // material below.
+        let wide = vec![[10.0, 18.5], [10.0, 19.5], [30.0, 19.5], [30.0, 18.5]];
+        assert_eq!(slits(&block, &[&hole], &[&wide], &bay, 0.5), None);
+        // One that leaves the middle of the mouth free.
+        let short = vec![[10.0, 18.5], [10.0, 19.5], [19.0, 19.5], [19.0, 18.5]];
+        let s = slits(&block, &[&hole], &[&short], &bay, 0.5).expect("a way past it");
+        let a = at(&[&block, &hole], s[0].from);
+        assert!(a[0] > 19.0 && a[0] < 24.0, "{a:?}");
+    }
+
+    #[test]
+    fn several_holes_join_one_after_another() {
+        let outer = circle(0.0, 0.0, 20.0, 64, true);
+        let h1 = circle(-8.0, 0.0, 4.0, 24, false);
+        let h2 = circle(8.0, 0.0, 4.0, 24, false);
+        // Below, a small disc in the middle: the void it leaves is everywhere else.
+        let below = circle(0.0, 0.0, 2.0, 16, true);
+        let s = slits(&outer, &[&h1, &h2], &[], &below, 0.5).expect("both join");
+        // The way between the holes passes over the disc, so each joins the rim.
+        assert!(s.iter().all(|s| s.from.ring == 0));
+        let l = loop_of(&outer, &[&h1, &h2], &s);
+        // Feet inside an edge add a point to their ring.
+        let inserted = s
+            .iter()
+            .flat_map(|s| [s.from, s.to])
+            .filter(|f| f.t > 0.0)
+            .count();
+        assert_eq!(l.len(), 64 + inserted + 2 * (3 + 24 + 1 + 3 + 1));
+    }
+
+    #[test]
+    fn a_hole_may_join_through_a_hole_joined_before() {
+        // The second hole lies behind the first, seen from the rim.
+        let outer = circle(0.0, 0.0, 20.0, 64, true);
+        let h1 = circle(12.0, 0.0, 3.0, 24, false);
+        let h2 = circle(4.0, 0.0, 3.0, 24, false);
+        let below = circle(-10.0, 0.0, 4.0, 16, true);
+        let s = slits(&outer, &[&h1, &h2], &[], &below, 0.5).expect("both join");
+        assert_eq!(s[1].from.ring, 1, "{s:?}");
+        loop_of(&outer, &[&h1, &h2], &s);
+    }
+}
