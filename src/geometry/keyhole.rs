@@ -12,8 +12,9 @@
 //! over the mouth.
 //!
 //! In (one plane frame, mm): the contour (counter-clockwise), the holes to join (clockwise),
-//! its other holes (slits must not cross them), and the other slice's contour projected into
-//! this plane: every slit's midpoint must lie outside it, over the void the mouth closes.
+//! its other holes (slits must not cross them), and the other slice's contours that it links
+//! to, projected into this plane: every slit's midpoint must lie outside them, over the void
+//! the mouth closes.
 //! Out: one [`Slit`] per hole, as vertex indices, or `None` if some hole has no admissible
 //! slit. [`keyhole_loop`] turns them into the loop for any point type, so the caller can
 //! build it from the contours' own points bit for bit.
@@ -61,7 +62,7 @@ pub fn slits(
     contour: &[Point],
     holes: &[&[Point]],
     other_holes: &[&[Point]],
-    outside_of: &[Point],
+    outside_of: &[&[Point]],
     step: f64,
 ) -> Option<Vec<Slit>> {
     if !(step.is_finite() && step > 0.0) {
@@ -89,7 +90,7 @@ pub fn slits(
             let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
             contains(contour, mid)
                 && !holes.iter().chain(other_holes).any(|h| contains(h, mid))
-                && !contains(outside_of, mid)
+                && !outside_of.iter().any(|o| contains(o, mid))
                 && !crosses_walls(a, b, &walls, s)
                 && !made.iter().any(|&(p, q)| touches(a, b, p, q))
         };
@@ -460,7 +461,7 @@ mod tests {
     #[test]
     fn a_hole_over_a_bay_joins_across_the_closed_mouth() {
         let (block, hole, bay) = bay_and_hole();
-        let s = slits(&block, &[&hole], &[], &bay, 0.5).expect("a slit exists");
+        let s = slits(&block, &[&hole], &[], &[&bay], 0.5).expect("a slit exists");
         // Straight up from the hole's top edge to the block's top edge (from x = 40 to 0),
         // across the mouth, 2 mm.
         let (a, b) = (
@@ -488,7 +489,7 @@ mod tests {
     fn a_slit_stays_over_the_other_slices_void() {
         // Below, the block has no bay: there is nothing to open into.
         let (block, hole, _) = bay_and_hole();
-        assert_eq!(slits(&block, &[&hole], &[], &block, 0.5), None);
+        assert_eq!(slits(&block, &[&hole], &[], &[&block], 0.5), None);
     }
 
     #[test]
@@ -497,10 +498,10 @@ mod tests {
         // A thin hole across the whole way out: every other way's midpoint lies over the
         // material below.
         let wide = vec![[10.0, 18.5], [10.0, 19.5], [30.0, 19.5], [30.0, 18.5]];
-        assert_eq!(slits(&block, &[&hole], &[&wide], &bay, 0.5), None);
+        assert_eq!(slits(&block, &[&hole], &[&wide], &[&bay], 0.5), None);
         // One that leaves the middle of the mouth free.
         let short = vec![[10.0, 18.5], [10.0, 19.5], [19.0, 19.5], [19.0, 18.5]];
-        let s = slits(&block, &[&hole], &[&short], &bay, 0.5).expect("a way past it");
+        let s = slits(&block, &[&hole], &[&short], &[&bay], 0.5).expect("a way past it");
         let a = at(&[&block, &hole], s[0].from);
         assert!(a[0] > 19.0 && a[0] < 24.0, "{a:?}");
     }
@@ -512,7 +513,7 @@ mod tests {
         let h2 = circle(8.0, 0.0, 4.0, 24, false);
         // Below, a small disc in the middle: the void it leaves is everywhere else.
         let below = circle(0.0, 0.0, 2.0, 16, true);
-        let s = slits(&outer, &[&h1, &h2], &[], &below, 0.5).expect("both join");
+        let s = slits(&outer, &[&h1, &h2], &[], &[&below], 0.5).expect("both join");
         // The way between the holes passes over the disc, so each joins the rim.
         assert!(s.iter().all(|s| s.from.ring == 0));
         let l = loop_of(&outer, &[&h1, &h2], &s);
@@ -532,7 +533,7 @@ mod tests {
         let h1 = circle(12.0, 0.0, 3.0, 24, false);
         let h2 = circle(4.0, 0.0, 3.0, 24, false);
         let below = circle(-10.0, 0.0, 4.0, 16, true);
-        let s = slits(&outer, &[&h1, &h2], &[], &below, 0.5).expect("both join");
+        let s = slits(&outer, &[&h1, &h2], &[], &[&below], 0.5).expect("both join");
         assert_eq!(s[1].from.ring, 1, "{s:?}");
         loop_of(&outer, &[&h1, &h2], &s);
     }

@@ -36,6 +36,46 @@ pub enum Side {
 /// section's contour: less, and it is a cavity starting inside the material, capped alone.
 pub const MIN_OPEN_FRACTION: f64 = 0.02;
 
+/// A contour and the holes it joins by slits into one keyhole loop (see
+/// [`crate::geometry::keyhole`]; in `slits` ring 0 is the contour and ring `k + 1` is
+/// `holes[k]`, in the lower section's plane). Without holes: the contour on its own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joined {
+    pub contour: usize,
+    pub holes: Vec<usize>,
+    pub slits: Vec<Slit>,
+}
+
+impl Joined {
+    pub fn is_keyhole(&self) -> bool {
+        !self.holes.is_empty()
+    }
+}
+
+impl Problem {
+    /// Whether lower contour `k` ends here in a keyhole (its regions close on it).
+    pub fn ends_in_keyhole(&self, k: usize) -> bool {
+        match self {
+            Problem::Keyhole { lower, .. } => lower.contour == k && lower.is_keyhole(),
+            Problem::Branch { lower_joined, .. } => lower_joined.iter().any(|j| j.contour == k),
+            _ => false,
+        }
+    }
+
+    /// The upper contours (outer and holes) that start here from a keyhole.
+    fn starting_from_keyhole(&self) -> Vec<usize> {
+        let joined: Vec<&Joined> = match self {
+            Problem::Keyhole { upper, .. } if upper.is_keyhole() => vec![upper],
+            Problem::Branch { upper_joined, .. } => upper_joined.iter().collect(),
+            _ => Vec::new(),
+        };
+        joined
+            .into_iter()
+            .flat_map(|j| std::iter::once(j.contour).chain(j.holes.iter().copied()))
+            .collect()
+    }
+}
+
 /// One problem between two adjacent sections. Indices are contour indices in their section.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Problem {
@@ -45,24 +85,21 @@ pub enum Problem {
         lower: usize,
         upper: usize,
     },
-    /// m contours below and n above form one connected component with m + n ≥ 3.
+    /// m contours below and n above form one connected component with m + n ≥ 3. Outer
+    /// contours with lone holes that open onto the other side's outside enter it as keyholes
+    /// (`lower_joined`, `upper_joined`; see [`Problem::Keyhole`]).
     Branch {
         hole: bool,
         lower: Vec<usize>,
         upper: Vec<usize>,
+        lower_joined: Vec<Joined>,
+        upper_joined: Vec<Joined>,
     },
     /// One outer contour continuing as one, where holes of either (or both) have no hole to
-    /// link to and open onto the other contour's outside. Each side's `holes` join its
-    /// contour by `slits` (in the section's plane; ring 0 is the contour, ring `k + 1` is
-    /// `holes[k]`) into one loop, where that side's regions end or start.
-    Keyhole {
-        lower: usize,
-        upper: usize,
-        lower_holes: Vec<usize>,
-        lower_slits: Vec<Slit>,
-        upper_holes: Vec<usize>,
-        upper_slits: Vec<Slit>,
-    },
+    /// link to and open onto the other contour's outside (a bay closing into a hole, or a
+    /// hole opening into a bay). That side's contour and holes are joined into one loop,
+    /// where its regions end or start.
+    Keyhole { lower: Joined, upper: Joined },
     /// Contours of one section with no counterpart on `side`: an outer contour with those of
     /// its holes that end with it (closed together, like the top of a flat torus), or a lone
     /// hole whose void closes while its outer contour goes on.
@@ -194,6 +231,8 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
                 hole,
                 lower: lower_ids,
                 upper: upper_ids,
+                lower_joined: Vec::new(),
+                upper_joined: Vec::new(),
             }
         });
     }
@@ -222,14 +261,18 @@ struct View<'a> {
     hole: Vec<bool>,
 }
 
-/// The fraction of hole `h`'s void outside the polygon `other`.
-fn open_fraction(h: &[Point], other: &[Point]) -> f64 {
+/// The fraction of hole `h`'s void outside the polygons `others` (disjoint: one section's
+/// outer contours).
+fn open_fraction(h: &[Point], others: &[&[Point]]) -> f64 {
     let area = signed_area(h).abs();
     if area.is_nan() || area <= 0.0 {
         return 0.0;
     }
     let cell = (area.sqrt() / 64.0).max(1e-3);
-    let shared = overlap_area(&Material::filled(h), &Material::filled(other), cell);
+    let shared: f64 = others
+        .iter()
+        .map(|o| overlap_area(&Material::filled(h), &Material::filled(o), cell))
+        .sum();
     (1.0 - shared / area).clamp(0.0, 1.0)
 }
 
@@ -239,36 +282,41 @@ fn slit_step(hole: &[Point]) -> f64 {
     (perimeter(hole) / 256.0).max(0.02)
 }
 
-/// The holes of `own`'s contour `k` among `lone` that open onto the outside of `other`,
-/// each kept only if it can join by a slit (with those kept before it), and their slits.
-fn joinable(own: &View, k: usize, lone: &[usize], other: &[Point]) -> (Vec<usize>, Vec<Slit>) {
+/// Contour `k` of `own` with those of its holes among `lone` that open onto the outside of
+/// `others` (the contours it links to), each kept only if it can join by a slit (with those
+/// kept before it).
+fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined {
     let candidates: Vec<usize> = lone
         .iter()
         .copied()
         .filter(|&h| {
-            own.arr.parent[h] == Some(k) && open_fraction(own.pts[h], other) >= MIN_OPEN_FRACTION
+            own.arr.parent[h] == Some(k) && open_fraction(own.pts[h], others) >= MIN_OPEN_FRACTION
         })
         .collect();
-    let mut kept: Vec<usize> = Vec::new();
-    let mut cuts = Vec::new();
+    let mut best = Joined {
+        contour: k,
+        holes: Vec::new(),
+        slits: Vec::new(),
+    };
     for &c in &candidates {
-        let mut trial = kept.clone();
+        let mut trial = best.holes.clone();
         trial.push(c);
         let joined: Vec<&[Point]> = trial.iter().map(|&h| own.pts[h]).collect();
-        let others: Vec<&[Point]> = (0..own.pts.len())
+        let rest: Vec<&[Point]> = (0..own.pts.len())
             .filter(|&h| own.hole[h] && own.arr.parent[h] == Some(k) && !trial.contains(&h))
             .map(|h| own.pts[h])
             .collect();
-        if let Some(s) = slits(own.pts[k], &joined, &others, other, slit_step(own.pts[c])) {
-            kept = trial;
-            cuts = s;
+        if let Some(s) = slits(own.pts[k], &joined, &rest, others, slit_step(own.pts[c])) {
+            best.holes = trial;
+            best.slits = s;
         }
     }
-    (kept, cuts)
+    best
 }
 
-/// Turns each outer 1-to-1 link whose lone holes open onto the other contour's outside
-/// into a keyhole, and drops those holes' caps.
+/// Turns outer links and branchings whose contours have lone holes opening onto the other
+/// side's outside into keyholes, and drops those holes' caps. `blocked` lower contours (see
+/// [`correspond`]) are not joined.
 fn join_keyholes(
     problems: Vec<Problem>,
     lower: &View,
@@ -293,39 +341,76 @@ fn join_keyholes(
     if lone_lower.is_empty() && lone_upper.is_empty() {
         return problems;
     }
-    let mut joined_lower: Vec<usize> = Vec::new();
-    let mut joined_upper: Vec<usize> = Vec::new();
+    fn pts<'a>(v: &View<'a>, ids: &[usize]) -> Vec<&'a [Point]> {
+        ids.iter().map(|&k| v.pts[k]).collect()
+    }
+    let join_lower = |i: usize, others: &[&[Point]]| {
+        if blocked.get(i).copied().unwrap_or(false) {
+            joinable(lower, i, &[], others)
+        } else {
+            joinable(lower, i, &lone_lower, others)
+        }
+    };
     let mut out: Vec<Problem> = problems
         .iter()
-        .map(|p| match *p {
+        .map(|p| match p {
             Problem::Link {
                 hole: false,
                 lower: i,
                 upper: j,
             } => {
-                let (lower_holes, lower_slits) = if blocked.get(i).copied().unwrap_or(false) {
-                    (Vec::new(), Vec::new())
+                let lo = join_lower(*i, &pts(upper, &[*j]));
+                let up = joinable(upper, *j, &lone_upper, &pts(lower, &[*i]));
+                if lo.is_keyhole() || up.is_keyhole() {
+                    Problem::Keyhole {
+                        lower: lo,
+                        upper: up,
+                    }
                 } else {
-                    joinable(lower, i, &lone_lower, upper.pts[j])
-                };
-                let (upper_holes, upper_slits) = joinable(upper, j, &lone_upper, lower.pts[i]);
-                if lower_holes.is_empty() && upper_holes.is_empty() {
-                    return p.clone();
+                    p.clone()
                 }
-                joined_lower.extend(&lower_holes);
-                joined_upper.extend(&upper_holes);
-                Problem::Keyhole {
-                    lower: i,
-                    upper: j,
-                    lower_holes,
-                    lower_slits,
-                    upper_holes,
-                    upper_slits,
+            }
+            Problem::Branch {
+                hole: false,
+                lower: l,
+                upper: u,
+                ..
+            } => {
+                let (lo_pts, up_pts) = (pts(lower, l), pts(upper, u));
+                let keyholes = |joined: Vec<Joined>| -> Vec<Joined> {
+                    joined.into_iter().filter(Joined::is_keyhole).collect()
+                };
+                Problem::Branch {
+                    hole: false,
+                    lower: l.clone(),
+                    upper: u.clone(),
+                    lower_joined: keyholes(l.iter().map(|&i| join_lower(i, &up_pts)).collect()),
+                    upper_joined: keyholes(
+                        u.iter()
+                            .map(|&j| joinable(upper, j, &lone_upper, &lo_pts))
+                            .collect(),
+                    ),
                 }
             }
             _ => p.clone(),
         })
         .collect();
+    let joined = |side: Side| -> Vec<usize> {
+        out.iter()
+            .flat_map(|p| match (p, side) {
+                (Problem::Keyhole { lower, .. }, Side::Above) => lower.holes.clone(),
+                (Problem::Keyhole { upper, .. }, Side::Below) => upper.holes.clone(),
+                (Problem::Branch { lower_joined, .. }, Side::Above) => {
+                    lower_joined.iter().flat_map(|j| j.holes.clone()).collect()
+                }
+                (Problem::Branch { upper_joined, .. }, Side::Below) => {
+                    upper_joined.iter().flat_map(|j| j.holes.clone()).collect()
+                }
+                _ => Vec::new(),
+            })
+            .collect()
+    };
+    let (joined_lower, joined_upper) = (joined(Side::Above), joined(Side::Below));
     out.retain(|p| match p {
         Problem::Cap {
             side,
@@ -340,20 +425,11 @@ fn join_keyholes(
     out
 }
 
-/// The contours of `upper` that start from a keyhole in `problems` (its upper sides).
+/// The contours of `upper` that start from a keyhole in `problems`.
 pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<bool> {
     let mut flags = vec![false; n];
-    for p in problems {
-        if let Problem::Keyhole {
-            upper, upper_holes, ..
-        } = p
-        {
-            if !upper_holes.is_empty() {
-                for &k in std::iter::once(upper).chain(upper_holes) {
-                    flags[k] = true;
-                }
-            }
-        }
+    for k in problems.iter().flat_map(Problem::starting_from_keyhole) {
+        flags[k] = true;
     }
     flags
 }
@@ -575,27 +651,20 @@ mod tests {
     fn a_bay_closing_into_a_hole_is_a_keyhole_not_a_cap() {
         let (lower, upper) = (section(0, vec![(bay(), false)]), block_with_hole());
         let problems = correspond(&lower, &upper, &[]);
-        let [Problem::Keyhole {
-            lower: 0,
-            upper: 0,
-            lower_holes,
-            upper_holes,
-            upper_slits,
-            ..
-        }] = problems.as_slice()
-        else {
+        let [Problem::Keyhole { lower, upper }] = problems.as_slice() else {
             panic!("{problems:?}");
         };
-        assert!(lower_holes.is_empty());
-        assert_eq!(upper_holes, &vec![1]);
+        assert_eq!((lower.contour, upper.contour), (0, 0));
+        assert!(!lower.is_keyhole());
+        assert_eq!(upper.holes, vec![1]);
         // Across the closed mouth, from the block's top edge to the hole's.
-        assert_eq!((upper_slits[0].from.ring, upper_slits[0].to.ring), (0, 1));
+        assert_eq!((upper.slits[0].from.ring, upper.slits[0].to.ring), (0, 1));
         // The other way up: the hole opens into the bay, the lower side is the keyhole.
         let (lower, upper) = (block_with_hole(), section(2, vec![(bay(), false)]));
         let problems = correspond(&lower, &upper, &[]);
         assert!(
-            matches!(problems.as_slice(), [Problem::Keyhole { lower_holes, upper_holes, .. }]
-                if lower_holes == &vec![1] && upper_holes.is_empty()),
+            matches!(problems.as_slice(), [Problem::Keyhole { lower, upper }]
+                if lower.holes == vec![1] && !upper.is_keyhole()),
             "{problems:?}"
         );
         // Unless the lower contour starts from a keyhole itself: then the hole caps alone.
@@ -606,6 +675,39 @@ mod tests {
                 [Problem::Link { .. }, Problem::Cap { outer: None, .. }]
             ),
             "{problems:?}"
+        );
+    }
+
+    #[test]
+    fn a_hole_over_the_gap_between_branches_joins_in_the_branching() {
+        // Two blocks below, one above with a hole over the gap between them.
+        let lower = section(
+            0,
+            vec![
+                (rect(0.0, 0.0, 18.0, 20.0), false),
+                (rect(22.0, 0.0, 40.0, 20.0), false),
+            ],
+        );
+        let problems = correspond(&lower, &block_with_hole(), &[]);
+        let [Problem::Branch {
+            lower,
+            upper,
+            lower_joined,
+            upper_joined,
+            ..
+        }] = problems.as_slice()
+        else {
+            panic!("{problems:?}");
+        };
+        assert_eq!(
+            (lower.as_slice(), upper.as_slice()),
+            (&[0, 1][..], &[0][..])
+        );
+        assert!(lower_joined.is_empty());
+        assert_eq!(upper_joined.len(), 1);
+        assert_eq!(
+            (upper_joined[0].contour, &upper_joined[0].holes),
+            (0, &vec![1])
         );
     }
 

@@ -12,12 +12,12 @@ use std::time::Instant;
 use crossbeam_channel::{Receiver, Sender};
 use rayon::prelude::*;
 
-use super::s3_correspondence::{Problem, Side, Transition};
+use super::s3_correspondence::{Joined, Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
-use crate::geometry::keyhole::{keyhole_loop, with_feet, Slit};
+use crate::geometry::keyhole::{keyhole_loop, with_feet};
 use crate::geometry::polygon::Point;
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
@@ -35,6 +35,9 @@ pub enum Solved {
         lower: Vec<Intermediate>,
         upper: Vec<Intermediate>,
         t: f64,
+        /// The problem's `lower_joined` and `upper_joined` keyholes, in order.
+        lower_keyholes: Vec<Keyhole>,
+        upper_keyholes: Vec<Keyhole>,
     },
     /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
     Cap {
@@ -55,27 +58,53 @@ pub struct Keyhole {
     pub joined: Vec<[f64; 3]>,
 }
 
-/// Builds the keyhole of `section`'s contour `k` and `holes` from the contours' own patient
-/// points (so the loop shares them bit for bit), the slits sampled every `step` mm.
-fn keyhole_of(section: &Section, k: usize, holes: &[usize], slits: &[Slit], step: f64) -> Keyhole {
-    let lerp = |a: [f64; 3], b: [f64; 3], t: f64| -> [f64; 3] {
-        std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
-    };
-    let rings: Vec<Vec<[f64; 3]>> = std::iter::once(k)
-        .chain(holes.iter().copied())
+/// How many pieces a slit from `a` to `b` is cut into: pieces of at most `step` mm.
+fn slit_pieces<const D: usize>(step: f64) -> impl Fn([f64; D], [f64; D]) -> usize {
+    move |a, b| {
+        let len = (0..D).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
+        ((len / step).ceil() as usize).clamp(1, 4096)
+    }
+}
+
+/// The `n − 1` points dividing `a`–`b` into `n` equal pieces.
+fn between<const D: usize>(a: [f64; D], b: [f64; D], n: usize) -> Vec<[f64; D]> {
+    (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
+}
+
+fn lerp<const D: usize>(a: [f64; D], b: [f64; D], t: f64) -> [f64; D] {
+    std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
+}
+
+/// Builds the keyhole `joined` of `section` from the contours' own patient points (so the
+/// loop shares them bit for bit), the slits sampled every `step` mm.
+fn keyhole_of(section: &Section, joined: &Joined, step: f64) -> Keyhole {
+    let rings: Vec<Vec<[f64; 3]>> = std::iter::once(joined.contour)
+        .chain(joined.holes.iter().copied())
         .enumerate()
-        .map(|(r, c)| with_feet(&contour_curve(section, c).points, r, slits, lerp))
+        .map(|(r, c)| with_feet(&contour_curve(section, c).points, r, &joined.slits, lerp))
         .collect();
     let refs: Vec<&[[f64; 3]]> = rings.iter().map(|r| r.as_slice()).collect();
-    let pieces = |a: [f64; 3], b: [f64; 3]| {
-        let len = (0..3).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
-        ((len / step).ceil() as usize).clamp(1, 4096)
-    };
-    let between = |a: [f64; 3], b: [f64; 3], n: usize| -> Vec<[f64; 3]> {
-        (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
-    };
-    let joined = keyhole_loop(&refs, slits, pieces, between);
+    let joined = keyhole_loop(&refs, &joined.slits, slit_pieces::<3>(step), between);
     Keyhole { rings, joined }
+}
+
+/// The keyhole `joined` of `section` as a counter-clockwise polygon in `frame`, for the
+/// distance maps (the slits have no width, so the polygon bounds the material).
+fn keyhole_in(frame: &SliceFrame, section: &Section, joined: &Joined, step: f64) -> Vec<Point> {
+    let rings: Vec<Vec<Point>> = std::iter::once(joined.contour)
+        .chain(joined.holes.iter().copied())
+        .enumerate()
+        .map(|(r, c)| {
+            let pts: Vec<Point> = section.contours[c]
+                .points
+                .iter()
+                .map(|&p| frame.to_plane(section.frame.to_patient(p)))
+                .collect();
+            with_feet(&pts, r, &joined.slits, lerp)
+        })
+        .collect();
+    let refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
+    keyhole_loop(&refs, &joined.slits, slit_pieces::<2>(step), between)
 }
 
 fn lift(frame: &SliceFrame, p: Point, dz: f64) -> [f64; 3] {
@@ -158,6 +187,11 @@ fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm
     }
 }
 
+/// Slits are sampled at twice the distance-map cell, like the ridge loops' paths.
+fn slit_step(cell_mm: f64) -> f64 {
+    2.0 * cell_mm
+}
+
 pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
     let geometry = |e, what: String| Error::Geometry {
         stage: STAGE,
@@ -166,33 +200,39 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
     };
     match p {
         Problem::Link { .. } => Ok(Solved::Link),
-        Problem::Keyhole {
-            lower,
-            upper,
-            lower_holes,
-            lower_slits,
-            upper_holes,
-            upper_slits,
-        } => {
+        Problem::Keyhole { lower, upper } => {
             let (lo, up) = both(t)?;
-            // Slits sampled at the distance-map's resolution, like the ridge loops.
-            let step = 2.0 * cell_mm;
-            let side = |s: &Section, k: usize, holes: &[usize], slits: &[Slit]| {
-                (!holes.is_empty()).then(|| keyhole_of(s, k, holes, slits, step))
-            };
+            let step = slit_step(cell_mm);
             Ok(Solved::Keyhole {
-                lower: side(lo, *lower, lower_holes, lower_slits),
-                upper: side(up, *upper, upper_holes, upper_slits),
+                lower: lower.is_keyhole().then(|| keyhole_of(lo, lower, step)),
+                upper: upper.is_keyhole().then(|| keyhole_of(up, upper, step)),
             })
         }
-        Problem::Branch { lower, upper, .. } => {
+        Problem::Branch {
+            lower,
+            upper,
+            lower_joined,
+            upper_joined,
+            ..
+        } => {
             let (Some(lo), Some(up)) = (&t.lower, &t.upper) else {
                 return Err(Error::Internal(
                     "branching problem at the end of the series".into(),
                 ));
             };
-            let a = ccw_in(&lo.frame, lo, lower);
-            let b = ccw_in(&lo.frame, up, upper);
+            let step = slit_step(cell_mm);
+            // Keyholes enter the distance maps as the material they bound.
+            let with_keyholes = |s: &Section, ids: &[usize], joined: &[Joined]| {
+                let mut polys = ccw_in(&lo.frame, s, ids);
+                for j in joined {
+                    if let Some(n) = ids.iter().position(|&k| k == j.contour) {
+                        polys[n] = keyhole_in(&lo.frame, s, j, step);
+                    }
+                }
+                polys
+            };
+            let a = with_keyholes(lo, lower, lower_joined);
+            let b = with_keyholes(up, upper, upper_joined);
             let a_refs: Vec<&[Point]> = a.iter().map(|v| v.as_slice()).collect();
             let b_refs: Vec<&[Point]> = b.iter().map(|v| v.as_slice()).collect();
             let r = intermediate_contours(&a_refs, &b_refs, cell_mm).map_err(|e| {
@@ -216,6 +256,14 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                 lower,
                 upper,
                 t: r.t,
+                lower_keyholes: lower_joined
+                    .iter()
+                    .map(|j| keyhole_of(lo, j, step))
+                    .collect(),
+                upper_keyholes: upper_joined
+                    .iter()
+                    .map(|j| keyhole_of(up, j, step))
+                    .collect(),
             })
         }
         Problem::Cap { side, outer, holes } => {
@@ -362,6 +410,81 @@ impl Assembler {
         widths
     }
 
+    /// Closes the regions of `joined`'s contour and holes in `section` on their rings (the
+    /// slits' feet inserted) and returns the region that starts on the keyhole loop.
+    fn end_on_keyhole(
+        &mut self,
+        section: &Section,
+        joined: &Joined,
+        k: Keyhole,
+        closed: &mut Vec<Region>,
+    ) -> Result<Region> {
+        let ids = std::iter::once(&joined.contour).chain(&joined.holes);
+        for (&c, ring) in ids.zip(k.rings) {
+            let mut r = self.take(c, section)?;
+            // Correspondence never joins a contour that started from a keyhole (it has
+            // one curve yet), and chains are not split just before one.
+            if r.curves.len() < 2 {
+                return Err(Error::Internal(format!(
+                    "slice {}: contour {c} ends in a keyhole where it starts",
+                    section.index
+                )));
+            }
+            if let Some(last) = r.curves.last_mut() {
+                last.points = ring;
+            }
+            self.close(r, closed);
+        }
+        Ok(Region {
+            id: 0,
+            hole: false,
+            curves: vec![RegionCurve {
+                points: k.joined,
+                origin: CurveOrigin::Keyhole {
+                    slice: section.index,
+                },
+            }],
+            seal: Vec::new(),
+            joint_below: false,
+        })
+    }
+
+    /// Ends `r` on the keyhole loop of `joined` in `section` and opens the regions of its
+    /// contour and holes on their rings (the slits' feet inserted).
+    fn start_from_keyhole(
+        &mut self,
+        section: &Section,
+        joined: &Joined,
+        k: Keyhole,
+        mut r: Region,
+        next: &mut [Option<Region>],
+        closed: &mut Vec<Region>,
+    ) {
+        r.curves.push(RegionCurve {
+            points: k.joined,
+            origin: CurveOrigin::Keyhole {
+                slice: section.index,
+            },
+        });
+        self.close(r, closed);
+        let ids = std::iter::once(&joined.contour).chain(&joined.holes);
+        for (n, (&c, points)) in ids.zip(k.rings).enumerate() {
+            next[c] = Some(Region {
+                id: 0,
+                hole: n > 0,
+                curves: vec![RegionCurve {
+                    points,
+                    origin: CurveOrigin::Contour {
+                        slice: section.index,
+                        contour: c,
+                    },
+                }],
+                seal: Vec::new(),
+                joint_below: false,
+            });
+        }
+    }
+
     /// Apply one transition; returns the regions it closes, in problem order. `ahead` are
     /// the next transitions (up to two), whose links place the caps that start regions.
     pub fn apply(
@@ -382,12 +505,9 @@ impl Assembler {
                     // Not where the next transition ends the chain in a keyhole: that
                     // inserts the slits' feet into this contour, and a segment ending here
                     // would already be gone.
-                    let keyhole_next = ahead.first().is_some_and(|n| {
-                        n.problems.iter().any(|p| {
-                            matches!(p, Problem::Keyhole { lower, lower_holes, .. }
-                                if lower == upper && !lower_holes.is_empty())
-                        })
-                    });
+                    let keyhole_next = ahead
+                        .first()
+                        .is_some_and(|n| n.problems.iter().any(|p| p.ends_in_keyhole(*upper)));
                     if self.max_curves >= 2 && r.curves.len() >= self.max_curves && !keyhole_next {
                         // A long chain: this segment ends here, the next starts on the same
                         // contour (its mesh rows are that contour's points on both sides).
@@ -405,11 +525,19 @@ impl Assembler {
                     next[*upper] = Some(r);
                 }
                 (
-                    Problem::Branch { hole, lower, upper },
+                    Problem::Branch {
+                        hole,
+                        lower,
+                        upper,
+                        lower_joined,
+                        upper_joined,
+                    },
                     Solved::Branch {
                         lower: il,
                         upper: iu,
                         t: at,
+                        lower_keyholes,
+                        upper_keyholes,
                     },
                 ) => {
                     // The kernel may move the plane off the middle (a contour splitting
@@ -434,20 +562,40 @@ impl Assembler {
                         .chain(above.iter().map(|c| (c.as_slice(), false)))
                         .collect();
                     let mut seal = Some(seal(&ends));
+                    let mut lower_keyholes: Vec<Option<Keyhole>> =
+                        lower_keyholes.into_iter().map(Some).collect();
+                    let mut upper_keyholes: Vec<Option<Keyhole>> =
+                        upper_keyholes.into_iter().map(Some).collect();
+                    let keyhole = |joined: &[Joined], keys: &mut [Option<Keyhole>], k: usize| {
+                        let n = joined.iter().position(|j| j.contour == k)?;
+                        Some((joined[n].clone(), keys[n].take()?))
+                    };
                     for (&k, points) in lower.iter().zip(below) {
-                        let mut r = self.take(k, lo)?;
+                        let mut r = match keyhole(lower_joined, &mut lower_keyholes, k) {
+                            None => self.take(k, lo)?,
+                            Some((j, key)) => self.end_on_keyhole(lo, &j, key, &mut closed)?,
+                        };
                         r.curves.push(RegionCurve { points, origin });
                         r.seal.extend(seal.take().unwrap_or_default());
                         self.close(r, &mut closed);
                     }
                     for (&k, points) in upper.iter().zip(above) {
-                        next[k] = Some(Region {
+                        let mut r = Region {
                             id: 0,
                             hole: *hole,
-                            curves: vec![RegionCurve { points, origin }, contour_curve(up, k)],
+                            curves: vec![RegionCurve { points, origin }],
                             seal: seal.take().unwrap_or_default(),
                             joint_below: false,
-                        });
+                        };
+                        match keyhole(upper_joined, &mut upper_keyholes, k) {
+                            None => {
+                                r.curves.push(contour_curve(up, k));
+                                next[k] = Some(r);
+                            }
+                            Some((j, key)) => {
+                                self.start_from_keyhole(up, &j, key, r, &mut next, &mut closed)
+                            }
+                        }
                     }
                 }
                 (
@@ -505,13 +653,7 @@ impl Assembler {
                     }
                 }
                 (
-                    Problem::Keyhole {
-                        lower,
-                        upper,
-                        lower_holes,
-                        upper_holes,
-                        ..
-                    },
+                    Problem::Keyhole { lower, upper },
                     Solved::Keyhole {
                         lower: kl,
                         upper: ku,
@@ -519,64 +661,15 @@ impl Assembler {
                 ) => {
                     let (lo, up) = both(t)?;
                     let mut r = match kl {
-                        None => self.take(*lower, lo)?,
-                        Some(k) => {
-                            // The regions of the contour and of its joined holes end on
-                            // them, with the slits' feet inserted; one starts on the loop.
-                            let ids = std::iter::once(lower).chain(lower_holes);
-                            for (&c, ring) in ids.zip(k.rings) {
-                                let mut r = self.take(c, lo)?;
-                                if r.curves.len() < 2 {
-                                    return Err(Error::Internal(format!(
-                                        "slice {}: contour {c} ends in a keyhole where it starts",
-                                        lo.index
-                                    )));
-                                }
-                                if let Some(last) = r.curves.last_mut() {
-                                    last.points = ring;
-                                }
-                                self.close(r, &mut closed);
-                            }
-                            Region {
-                                id: 0,
-                                hole: false,
-                                curves: vec![RegionCurve {
-                                    points: k.joined,
-                                    origin: CurveOrigin::Keyhole { slice: lo.index },
-                                }],
-                                seal: Vec::new(),
-                                joint_below: false,
-                            }
-                        }
+                        None => self.take(lower.contour, lo)?,
+                        Some(k) => self.end_on_keyhole(lo, lower, k, &mut closed)?,
                     };
                     match ku {
                         None => {
-                            r.curves.push(contour_curve(up, *upper));
-                            next[*upper] = Some(r);
+                            r.curves.push(contour_curve(up, upper.contour));
+                            next[upper.contour] = Some(r);
                         }
-                        Some(k) => {
-                            r.curves.push(RegionCurve {
-                                points: k.joined,
-                                origin: CurveOrigin::Keyhole { slice: up.index },
-                            });
-                            self.close(r, &mut closed);
-                            let ids = std::iter::once(upper).chain(upper_holes);
-                            for (n, (&c, points)) in ids.zip(k.rings).enumerate() {
-                                next[c] = Some(Region {
-                                    id: 0,
-                                    hole: n > 0,
-                                    curves: vec![RegionCurve {
-                                        points,
-                                        origin: CurveOrigin::Contour {
-                                            slice: up.index,
-                                            contour: c,
-                                        },
-                                    }],
-                                    seal: Vec::new(),
-                                    joint_below: false,
-                                });
-                            }
-                        }
+                        Some(k) => self.start_from_keyhole(up, upper, k, r, &mut next, &mut closed),
                     }
                 }
                 _ => return Err(Error::Internal("problem and solution do not match".into())),
