@@ -65,7 +65,9 @@
 //!   outside `M_t` ([`super::bridges`]), so each piece stays covered from both sections.
 //!   Pieces below `MIN_PIECE_CELLS` or that no bridge reaches are dropped (no intermediate
 //!   contour of that section covers them; the mesh seals them flat);
-//! - a piece with holes (possible when `M_t` itself is annular): the holes are dropped;
+//! - a piece with holes (possible when `M_t` itself is annular): the holes are returned
+//!   beside the loop (`lower_holes`, `upper_holes`); those below `MIN_PIECE_CELLS` are
+//!   dropped;
 //! - `M_t ∩ zone_i` empty (the contour overlaps nothing, or only below the raster
 //!   resolution): a point intermediate contour at the sample of `M` nearest to contour `i`;
 //! - `M_t` empty (no contour overlaps any other): every contour gets the point of largest
@@ -123,6 +125,11 @@ pub struct IntermediateContours {
     pub t: f64,
     pub lower: Vec<Intermediate>,
     pub upper: Vec<Intermediate>,
+    /// The holes of each lower (upper) contour's loop: where `M_t` itself has holes (a bay
+    /// closing, a window between branches), clockwise loops inside it, compressed with the
+    /// other loops so both sides' holes share their points; the caller joins or skins them.
+    pub lower_holes: Vec<Vec<Vec<Point>>>,
+    pub upper_holes: Vec<Vec<Vec<Point>>>,
     pub warnings: Vec<String>,
 }
 
@@ -492,7 +499,7 @@ fn intermediate_contours_with(
 
     // Each contour's zone within M_t: its pieces, largest first (several when the zone is
     // split; they are joined by bridges once compressed, see `bridges`).
-    type Pieces = Option<Vec<Vec<Point>>>;
+    type Pieces = Option<(Vec<Vec<Point>>, Vec<Vec<Point>>)>;
     let extracted: Vec<(Pieces, Vec<String>)> = jobs
         .par_iter()
         .zip(&chosen.zones)
@@ -511,16 +518,26 @@ fn intermediate_contours_with(
                     pieces.push(insert_junctions(lp, &grid, &g, &n));
                 }
             }
-            let holes = loops
+            let inside = |lp: &Vec<Point>| pieces.iter().any(|pc| contains(pc, lp[0]));
+            let small = loops
                 .iter()
-                .filter(|lp| signed_area(lp) < 0.0 && pieces.iter().any(|pc| contains(pc, lp[0])))
+                .filter(|lp| {
+                    let a = signed_area(lp);
+                    a < 0.0 && a >= -MIN_PIECE_CELLS * cell * cell && inside(lp)
+                })
                 .count();
-            if holes > 0 {
+            if small > 0 {
                 notes.push(format!(
-                    "{name} contour {i}: its intermediate region has {holes} hole(s); filled"
+                    "{name} contour {i}: its intermediate region has {small} hole(s) too small \
+                     to keep; filled"
                 ));
             }
-            (Some(pieces), notes)
+            let holes: Vec<Vec<Point>> = loops
+                .iter()
+                .filter(|lp| signed_area(lp) < -MIN_PIECE_CELLS * cell * cell && inside(lp))
+                .map(|lp| insert_junctions(lp, &grid, &g, &n))
+                .collect();
+            (Some((pieces, holes)), notes)
         })
         .collect();
 
@@ -528,19 +545,22 @@ fn intermediate_contours_with(
     let flat: Vec<Vec<Point>> = extracted
         .iter()
         .filter_map(|(lp, _)| lp.as_ref())
-        .flatten()
+        .flat_map(|(pieces, holes)| pieces.iter().chain(holes))
         .cloned()
         .collect();
     let compressed_flat = simplify_shared(&flat, SIMPLIFY_TOL_CELLS * cell);
     let all_loops: Vec<&[Point]> = compressed_flat.iter().map(|l| l.as_slice()).collect();
     let mut next_loop = 0;
     let mut compressed = Vec::new();
+    let mut compressed_holes = Vec::new();
     for ((&(is_lower, i), (lp, _)), (_, _, count, total)) in
         jobs.iter().zip(&extracted).zip(&chosen.zones)
     {
-        let Some(pieces) = lp else { continue };
+        let Some((pieces, holes)) = lp else { continue };
         let own = &compressed_flat[next_loop..next_loop + pieces.len()];
         next_loop += pieces.len();
+        compressed_holes.push(compressed_flat[next_loop..next_loop + holes.len()].to_vec());
+        next_loop += holes.len();
         let (name, contour) = if is_lower {
             ("lower", lower[i])
         } else {
@@ -557,11 +577,14 @@ fn intermediate_contours_with(
         compressed.push(joined.points);
     }
     let mut compressed = compressed.into_iter();
+    let mut compressed_holes = compressed_holes.into_iter();
 
     let mut out = IntermediateContours {
         t,
         lower: Vec::new(),
         upper: Vec::new(),
+        lower_holes: Vec::new(),
+        upper_holes: Vec::new(),
         warnings: Vec::new(),
     };
     for (&(is_lower, i), (lp, notes)) in jobs.iter().zip(extracted) {
@@ -570,6 +593,10 @@ fn intermediate_contours_with(
             ("lower", lower[i])
         } else {
             ("upper", upper[i])
+        };
+        let holes = match lp {
+            Some(_) => compressed_holes.next().unwrap_or_default(),
+            None => Vec::new(),
         };
         let result = match lp {
             Some(_) => match compressed.next() {
@@ -600,8 +627,10 @@ fn intermediate_contours_with(
         };
         if is_lower {
             out.lower.push(result);
+            out.lower_holes.push(holes);
         } else {
             out.upper.push(result);
+            out.upper_holes.push(holes);
         }
     }
     out.warnings = warnings;
@@ -660,5 +689,56 @@ mod tests {
         let g = raster_for(&[&a], 0.01, &mut warnings).unwrap();
         assert!(g.len() <= MAX_RASTER_CELLS && g.cell_mm > 0.01);
         assert!(warnings.iter().any(|w| w.contains("coarsened")));
+    }
+
+    #[test]
+    fn an_annular_intermediate_section_returns_its_hole() {
+        // Below, two U-shaped halves of a 30 × 30 frame (bars 6 mm wide) with 2 mm gaps
+        // between them; above, the whole frame, as a keyhole (a slit through its left bar).
+        let left = vec![
+            [0.0, 0.0],
+            [14.0, 0.0],
+            [14.0, 6.0],
+            [6.0, 6.0],
+            [6.0, 24.0],
+            [14.0, 24.0],
+            [14.0, 30.0],
+            [0.0, 30.0],
+        ];
+        let right: Vec<Point> = left.iter().rev().map(|p| [30.0 - p[0], p[1]]).collect();
+        let frame = vec![
+            [0.0, 15.0],
+            [0.0, 0.0],
+            [30.0, 0.0],
+            [30.0, 30.0],
+            [0.0, 30.0],
+            [0.0, 15.0],
+            [6.0, 15.0],
+            [6.0, 24.0],
+            [24.0, 24.0],
+            [24.0, 6.0],
+            [6.0, 6.0],
+            [6.0, 15.0],
+        ];
+        let r = intermediate_contours(&[&left, &right], &[&frame], 0.1).unwrap();
+        assert!(r.lower_holes.iter().all(|h| h.is_empty()));
+        let [hole] = r.upper_holes[0].as_slice() else {
+            panic!("{:?}", r.upper_holes)
+        };
+        // The window, 18 × 18 mm at both sections, and clockwise.
+        let area = signed_area(hole);
+        assert!((area + 324.0).abs() < 5.0, "area {area}");
+        // Its points are on the lower loops too: both sides share the window's edges.
+        let lower_points: Vec<Point> = r
+            .lower
+            .iter()
+            .filter_map(|c| match c {
+                Intermediate::Loop(l) => Some(l.clone()),
+                Intermediate::Point(_) => None,
+            })
+            .flatten()
+            .collect();
+        let shared = hole.iter().filter(|p| lower_points.contains(p)).count();
+        assert_eq!(shared, hole.len());
     }
 }

@@ -17,8 +17,10 @@ use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
-use crate::geometry::keyhole::{keyhole_loop, with_feet};
+use crate::geometry::keyhole::{keyhole_loop, slits, with_feet};
+use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
+use crate::geometry::polygon::{perimeter, signed_area};
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
@@ -38,6 +40,10 @@ pub enum Solved {
         /// The problem's `lower_joined` and `upper_joined` keyholes, in order.
         lower_keyholes: Vec<Keyhole>,
         upper_keyholes: Vec<Keyhole>,
+        /// Per upper contour: where it is a keyhole and the intermediate section has its
+        /// holes, their loops (in the keyhole's hole order): the keyhole is not used, and
+        /// contour and holes start from their own loops.
+        hole_loops: Vec<Option<Vec<Intermediate>>>,
     },
     /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
     Cap {
@@ -187,6 +193,77 @@ fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm
     }
 }
 
+/// The holes of an intermediate section (`holes`, clockwise, lower frame) in the order of
+/// `joined`'s holes, if each lies over exactly one of them (most of its area) and each of
+/// them has one.
+fn match_holes(
+    holes: &[Vec<Point>],
+    section: &Section,
+    joined: &Joined,
+    frame: &SliceFrame,
+) -> Option<Vec<Vec<Point>>> {
+    if holes.len() != joined.holes.len() {
+        return None;
+    }
+    let targets: Vec<Vec<Point>> = ccw_in(frame, section, &joined.holes);
+    let mut order: Vec<Option<Vec<Point>>> = vec![None; targets.len()];
+    for h in holes {
+        let area = signed_area(h).abs();
+        let cell = (area.sqrt() / 64.0).max(1e-3);
+        let over: Vec<usize> = (0..targets.len())
+            .filter(|&k| {
+                let shared =
+                    overlap_area(&Material::filled(h), &Material::filled(&targets[k]), cell);
+                shared > 0.5 * area
+            })
+            .collect();
+        match over.as_slice() {
+            [k] if order[*k].is_none() => order[*k] = Some(h.clone()),
+            _ => return None,
+        }
+    }
+    order.into_iter().collect()
+}
+
+/// Joins `holes` into the intermediate loop `c` by slits whose midpoints lie outside
+/// `outside_of` (the side's own contours: the slit's notch opens towards that side's void);
+/// if no slits fit, the holes are filled, with a warning.
+fn join_holes(
+    c: &mut Intermediate,
+    holes: &[Vec<Point>],
+    outside_of: &[&[Point]],
+    cell_mm: f64,
+    warn: &mut impl FnMut(String),
+) {
+    let Intermediate::Loop(outer) = c else { return };
+    let refs: Vec<&[Point]> = holes.iter().map(|h| h.as_slice()).collect();
+    let step = holes
+        .iter()
+        .map(|h| perimeter(h))
+        .fold(f64::INFINITY, f64::min)
+        / 256.0;
+    match slits(outer, &refs, &[], outside_of, step.max(0.02)) {
+        Some(cuts) => {
+            let rings: Vec<Vec<Point>> = std::iter::once(outer.as_slice())
+                .chain(refs.iter().copied())
+                .enumerate()
+                .map(|(r, pts)| with_feet(pts, r, &cuts, lerp))
+                .collect();
+            let ring_refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
+            *outer = keyhole_loop(
+                &ring_refs,
+                &cuts,
+                slit_pieces::<2>(slit_step(cell_mm)),
+                between,
+            );
+        }
+        None => warn(format!(
+            "{} hole(s) of an intermediate contour could not be joined to it by a slit; filled",
+            holes.len()
+        )),
+    }
+}
+
 /// Slits are sampled at twice the distance-map cell, like the ridge loops' paths.
 fn slit_step(cell_mm: f64) -> f64 {
     2.0 * cell_mm
@@ -250,11 +327,33 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             for w in &r.warnings {
                 ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             }
-            let (mut lower, mut upper) = (r.lower, r.upper);
-            conform_loops(lower.iter_mut().chain(upper.iter_mut()), cell_mm);
+            let (mut il, mut iu) = (r.lower, r.upper);
+            let mut warn = |w: String| ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
+            // Where M_t has holes: an upper keyhole whose holes they match starts them as
+            // hole walls of their own; every other loop takes its holes in by slits.
+            let mut hole_loops: Vec<Option<Vec<Intermediate>>> = vec![None; upper.len()];
+            for (n, holes) in r.upper_holes.into_iter().enumerate() {
+                if holes.is_empty() {
+                    continue;
+                }
+                let joined = upper_joined.iter().find(|j| j.contour == upper[n]);
+                if let Some(order) = joined.and_then(|j| match_holes(&holes, up, j, &lo.frame)) {
+                    hole_loops[n] = Some(order.into_iter().map(Intermediate::Loop).collect());
+                } else {
+                    join_holes(&mut iu[n], &holes, &b_refs, cell_mm, &mut warn);
+                }
+            }
+            for (n, holes) in r.lower_holes.into_iter().enumerate() {
+                if !holes.is_empty() {
+                    join_holes(&mut il[n], &holes, &a_refs, cell_mm, &mut warn);
+                }
+            }
+            let separate = hole_loops.iter_mut().flatten().flatten();
+            conform_loops(il.iter_mut().chain(iu.iter_mut()).chain(separate), cell_mm);
             Ok(Solved::Branch {
-                lower,
-                upper,
+                lower: il,
+                upper: iu,
+                hole_loops,
                 t: r.t,
                 lower_keyholes: lower_joined
                     .iter()
@@ -538,6 +637,7 @@ impl Assembler {
                         t: at,
                         lower_keyholes,
                         upper_keyholes,
+                        hole_loops,
                     },
                 ) => {
                     // The kernel may move the plane off the middle (a contour splitting
@@ -556,10 +656,29 @@ impl Assembler {
                         .iter()
                         .map(|c| lift_curve(&lo.frame, c, dz, *hole))
                         .collect();
+                    // Holes of the intermediate section that start hole walls of their own.
+                    let hole_above: Vec<Option<Vec<Vec<[f64; 3]>>>> = hole_loops
+                        .iter()
+                        .map(|h| {
+                            h.as_ref().map(|loops| {
+                                loops
+                                    .iter()
+                                    .map(|c| lift_curve(&lo.frame, c, dz, *hole))
+                                    .collect()
+                            })
+                        })
+                        .collect();
                     let ends: Vec<(&[[f64; 3]], bool)> = below
                         .iter()
                         .map(|c| (c.as_slice(), true))
                         .chain(above.iter().map(|c| (c.as_slice(), false)))
+                        .chain(
+                            hole_above
+                                .iter()
+                                .flatten()
+                                .flatten()
+                                .map(|c| (c.as_slice(), false)),
+                        )
                         .collect();
                     let mut seal = Some(seal(&ends));
                     let mut lower_keyholes: Vec<Option<Keyhole>> =
@@ -579,7 +698,7 @@ impl Assembler {
                         r.seal.extend(seal.take().unwrap_or_default());
                         self.close(r, &mut closed);
                     }
-                    for (&k, points) in upper.iter().zip(above) {
+                    for ((&k, points), holes_above) in upper.iter().zip(above).zip(hole_above) {
                         let mut r = Region {
                             id: 0,
                             hole: *hole,
@@ -587,7 +706,26 @@ impl Assembler {
                             seal: seal.take().unwrap_or_default(),
                             joint_below: false,
                         };
-                        match keyhole(upper_joined, &mut upper_keyholes, k) {
+                        let key = keyhole(upper_joined, &mut upper_keyholes, k);
+                        if let (Some((j, _)), Some(loops)) = (&key, holes_above) {
+                            // The section's holes already stand apart: no keyhole.
+                            r.curves.push(contour_curve(up, k));
+                            next[k] = Some(r);
+                            for (&h, points) in j.holes.iter().zip(loops) {
+                                next[h] = Some(Region {
+                                    id: 0,
+                                    hole: true,
+                                    curves: vec![
+                                        RegionCurve { points, origin },
+                                        contour_curve(up, h),
+                                    ],
+                                    seal: Vec::new(),
+                                    joint_below: false,
+                                });
+                            }
+                            continue;
+                        }
+                        match key {
                             None => {
                                 r.curves.push(contour_curve(up, k));
                                 next[k] = Some(r);
