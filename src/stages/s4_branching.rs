@@ -20,7 +20,7 @@ use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::keyhole::{keyhole_loop, slits, with_feet};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
-use crate::geometry::polygon::{perimeter, signed_area};
+use crate::geometry::polygon::{contains, perimeter, signed_area};
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
@@ -37,13 +37,14 @@ pub enum Solved {
         lower: Vec<Intermediate>,
         upper: Vec<Intermediate>,
         t: f64,
-        /// The problem's `lower_joined` and `upper_joined` keyholes, in order.
+        /// The problem's `lower_joined` keyholes, in order.
         lower_keyholes: Vec<Keyhole>,
-        upper_keyholes: Vec<Keyhole>,
-        /// Per upper contour: where it is a keyhole and the intermediate section has its
-        /// holes, their loops (in the keyhole's hole order): the keyhole is not used, and
-        /// contour and holes start from their own loops.
-        hole_loops: Vec<Option<Vec<Intermediate>>>,
+        /// The `upper_joined` keyholes, in order, each with the holes it really joins:
+        /// those the intermediate section has already stand apart (`hole_loops`).
+        upper_keyholes: Vec<(Joined, Keyhole)>,
+        /// Per upper contour that is a keyhole: the holes of the intermediate section that
+        /// lie over its holes, as (hole contour, loop): they start hole walls of their own.
+        hole_loops: Vec<Option<Vec<(usize, Intermediate)>>>,
     },
     /// Caps: for the outer contour (if any) and each hole, in the capped section's frame.
     Cap {
@@ -193,20 +194,20 @@ fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm
     }
 }
 
-/// The holes of an intermediate section (`holes`, clockwise, lower frame) in the order of
-/// `joined`'s holes, if each lies over exactly one of them (most of its area) and each of
-/// them has one.
-fn match_holes(
+/// A hole contour of a section and the hole of the intermediate section over it.
+type HolePair = (usize, Vec<Point>);
+
+/// Pairs the holes of an intermediate section (`holes`, clockwise, lower frame) with the
+/// holes of the keyhole `joined` they lie over (most of their area over exactly one, and
+/// one each); returns the pairs (hole contour, loop) and the holes left unpaired.
+fn pair_holes(
     holes: &[Vec<Point>],
     section: &Section,
     joined: &Joined,
     frame: &SliceFrame,
-) -> Option<Vec<Vec<Point>>> {
-    if holes.len() != joined.holes.len() {
-        return None;
-    }
+) -> (Vec<HolePair>, Vec<Vec<Point>>) {
     let targets: Vec<Vec<Point>> = ccw_in(frame, section, &joined.holes);
-    let mut order: Vec<Option<Vec<Point>>> = vec![None; targets.len()];
+    let (mut pairs, mut unpaired): (Vec<HolePair>, Vec<Vec<Point>>) = Default::default();
     for h in holes {
         let area = signed_area(h).abs();
         let cell = (area.sqrt() / 64.0).max(1e-3);
@@ -218,11 +219,66 @@ fn match_holes(
             })
             .collect();
         match over.as_slice() {
-            [k] if order[*k].is_none() => order[*k] = Some(h.clone()),
-            _ => return None,
+            [k] if pairs.iter().all(|p| p.0 != joined.holes[*k]) => {
+                pairs.push((joined.holes[*k], h.clone()))
+            }
+            _ => unpaired.push(h.clone()),
         }
     }
-    order.into_iter().collect()
+    (pairs, unpaired)
+}
+
+/// Contour `k` of `section` joined with only `holes` (slits found again in `frame`, their
+/// midpoints outside `outside_of`, clear of the contour's other holes), or `None` if they no
+/// longer fit.
+fn rejoin(
+    section: &Section,
+    k: usize,
+    holes: &[usize],
+    outside_of: &[&[Point]],
+    frame: &SliceFrame,
+) -> Option<Joined> {
+    let plain = Joined {
+        contour: k,
+        holes: Vec::new(),
+        slits: Vec::new(),
+    };
+    if holes.is_empty() {
+        return Some(plain);
+    }
+    let in_frame = |c: usize| -> Vec<Point> {
+        section.contours[c]
+            .points
+            .iter()
+            .map(|&p| frame.to_plane(section.frame.to_patient(p)))
+            .collect()
+    };
+    let outer = in_frame(k);
+    let own: Vec<Vec<Point>> = holes.iter().map(|&h| in_frame(h)).collect();
+    let others: Vec<Vec<Point>> = (0..section.contours.len())
+        .filter(|&h| {
+            section.contours[h].hole
+                && !holes.contains(&h)
+                && contains(
+                    &outer,
+                    frame.to_plane(section.frame.to_patient(section.contours[h].points[0])),
+                )
+        })
+        .map(in_frame)
+        .collect();
+    let own_refs: Vec<&[Point]> = own.iter().map(|h| h.as_slice()).collect();
+    let other_refs: Vec<&[Point]> = others.iter().map(|h| h.as_slice()).collect();
+    let step = own
+        .iter()
+        .map(|h| perimeter(h))
+        .fold(f64::INFINITY, f64::min)
+        / 256.0;
+    let cuts = slits(&outer, &own_refs, &other_refs, outside_of, step.max(0.02))?;
+    Some(Joined {
+        holes: holes.to_vec(),
+        slits: cuts,
+        ..plain
+    })
 }
 
 /// Joins `holes` into the intermediate loop `c` by slits whose midpoints lie outside
@@ -331,16 +387,45 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             let mut warn = |w: String| ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             // Where M_t has holes: an upper keyhole whose holes they match starts them as
             // hole walls of their own; every other loop takes its holes in by slits.
-            let mut hole_loops: Vec<Option<Vec<Intermediate>>> = vec![None; upper.len()];
+            let mut upper_keys: Vec<(Joined, Keyhole)> = upper_joined
+                .iter()
+                .map(|j| (j.clone(), keyhole_of(up, j, step)))
+                .collect();
+            let mut hole_loops: Vec<Option<Vec<(usize, Intermediate)>>> = vec![None; upper.len()];
             for (n, holes) in r.upper_holes.into_iter().enumerate() {
                 if holes.is_empty() {
                     continue;
                 }
-                let joined = upper_joined.iter().find(|j| j.contour == upper[n]);
-                if let Some(order) = joined.and_then(|j| match_holes(&holes, up, j, &lo.frame)) {
-                    hole_loops[n] = Some(order.into_iter().map(Intermediate::Loop).collect());
-                } else {
-                    join_holes(&mut iu[n], &holes, &b_refs, cell_mm, &mut warn);
+                let mut rest = holes;
+                if let Some(ji) = upper_joined.iter().position(|j| j.contour == upper[n]) {
+                    let j = &upper_joined[ji];
+                    let (pairs, unmatched) = pair_holes(&rest, up, j, &lo.frame);
+                    let left: Vec<usize> = j
+                        .holes
+                        .iter()
+                        .copied()
+                        .filter(|h| pairs.iter().all(|p| p.0 != *h))
+                        .collect();
+                    // The keyhole is rebuilt from the holes the section does not have.
+                    let rebuilt = if pairs.is_empty() {
+                        None
+                    } else {
+                        rejoin(up, j.contour, &left, &a_refs, &lo.frame)
+                    };
+                    if let Some(rebuilt) = rebuilt {
+                        let key = keyhole_of(up, &rebuilt, step);
+                        upper_keys[ji] = (rebuilt, key);
+                        hole_loops[n] = Some(
+                            pairs
+                                .into_iter()
+                                .map(|(h, l)| (h, Intermediate::Loop(l)))
+                                .collect(),
+                        );
+                        rest = unmatched;
+                    }
+                }
+                if !rest.is_empty() {
+                    join_holes(&mut iu[n], &rest, &b_refs, cell_mm, &mut warn);
                 }
             }
             for (n, holes) in r.lower_holes.into_iter().enumerate() {
@@ -348,7 +433,7 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     join_holes(&mut il[n], &holes, &a_refs, cell_mm, &mut warn);
                 }
             }
-            let separate = hole_loops.iter_mut().flatten().flatten();
+            let separate = hole_loops.iter_mut().flatten().flatten().map(|(_, l)| l);
             conform_loops(il.iter_mut().chain(iu.iter_mut()).chain(separate), cell_mm);
             Ok(Solved::Branch {
                 lower: il,
@@ -359,10 +444,7 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     .iter()
                     .map(|j| keyhole_of(lo, j, step))
                     .collect(),
-                upper_keyholes: upper_joined
-                    .iter()
-                    .map(|j| keyhole_of(up, j, step))
-                    .collect(),
+                upper_keyholes: upper_keys,
             })
         }
         Problem::Cap { side, outer, holes } => {
@@ -657,15 +739,13 @@ impl Assembler {
                         .map(|c| lift_curve(&lo.frame, c, dz, *hole))
                         .collect();
                     // Holes of the intermediate section that start hole walls of their own.
-                    let hole_above: Vec<Option<Vec<Vec<[f64; 3]>>>> = hole_loops
+                    let hole_above: Vec<Vec<(usize, Vec<[f64; 3]>)>> = hole_loops
                         .iter()
                         .map(|h| {
-                            h.as_ref().map(|loops| {
-                                loops
-                                    .iter()
-                                    .map(|c| lift_curve(&lo.frame, c, dz, *hole))
-                                    .collect()
-                            })
+                            h.iter()
+                                .flatten()
+                                .map(|(c, l)| (*c, lift_curve(&lo.frame, l, dz, *hole)))
+                                .collect()
                         })
                         .collect();
                     let ends: Vec<(&[[f64; 3]], bool)> = below
@@ -676,14 +756,13 @@ impl Assembler {
                             hole_above
                                 .iter()
                                 .flatten()
-                                .flatten()
-                                .map(|c| (c.as_slice(), false)),
+                                .map(|(_, c)| (c.as_slice(), false)),
                         )
                         .collect();
                     let mut seal = Some(seal(&ends));
                     let mut lower_keyholes: Vec<Option<Keyhole>> =
                         lower_keyholes.into_iter().map(Some).collect();
-                    let mut upper_keyholes: Vec<Option<Keyhole>> =
+                    let mut upper_keyholes: Vec<Option<(Joined, Keyhole)>> =
                         upper_keyholes.into_iter().map(Some).collect();
                     let keyhole = |joined: &[Joined], keys: &mut [Option<Keyhole>], k: usize| {
                         let n = joined.iter().position(|j| j.contour == k)?;
@@ -706,32 +785,28 @@ impl Assembler {
                             seal: seal.take().unwrap_or_default(),
                             joint_below: false,
                         };
-                        let key = keyhole(upper_joined, &mut upper_keyholes, k);
-                        if let (Some((j, _)), Some(loops)) = (&key, holes_above) {
-                            // The section's holes already stand apart: no keyhole.
-                            r.curves.push(contour_curve(up, k));
-                            next[k] = Some(r);
-                            for (&h, points) in j.holes.iter().zip(loops) {
-                                next[h] = Some(Region {
-                                    id: 0,
-                                    hole: true,
-                                    curves: vec![
-                                        RegionCurve { points, origin },
-                                        contour_curve(up, h),
-                                    ],
-                                    seal: Vec::new(),
-                                    joint_below: false,
-                                });
-                            }
-                            continue;
+                        // Holes of the intermediate section over the keyhole's holes start
+                        // their walls there; the keyhole joins only the others, if any.
+                        for (h, points) in holes_above {
+                            next[h] = Some(Region {
+                                id: 0,
+                                hole: true,
+                                curves: vec![RegionCurve { points, origin }, contour_curve(up, h)],
+                                seal: Vec::new(),
+                                joint_below: false,
+                            });
                         }
+                        let key = upper_joined
+                            .iter()
+                            .position(|j| j.contour == k)
+                            .and_then(|n| upper_keyholes[n].take());
                         match key {
-                            None => {
+                            Some((j, key)) if j.is_keyhole() => {
+                                self.start_from_keyhole(up, &j, key, r, &mut next, &mut closed)
+                            }
+                            _ => {
                                 r.curves.push(contour_curve(up, k));
                                 next[k] = Some(r);
-                            }
-                            Some((j, key)) => {
-                                self.start_from_keyhole(up, &j, key, r, &mut next, &mut closed)
                             }
                         }
                     }
