@@ -2,8 +2,12 @@
 //! transition it computes the intermediate contours of every m-to-n problem and the caps of
 //! every contour without a counterpart, then threads the curves into single-branching regions:
 //! a 1-to-1 link extends a region, a branching ends the regions below at their intermediate
-//! contours and starts new ones above, a cap ends or starts one. A region leaves as soon as it
-//! is closed, so memory holds only the regions still open at the current slice.
+//! contours and starts new ones above, a cap ends or starts one. A keyhole (a contour joined
+//! with holes by slits, see [`crate::geometry::keyhole`]) ends the regions of its contour and
+//! holes and starts one on its loop, or the other way up; where a branching's intermediate
+//! section has holes, they start hole walls of their own or are slit into their loop. A
+//! region leaves as soon as it is closed, so memory holds only the regions still open at the
+//! current slice.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
