@@ -49,6 +49,9 @@ pub struct Region {
     /// The first curve is the contour where the previous segment of the same chain ended
     /// (a long chain is split, see `RunConfig::max_curves`): its points count there.
     pub joint_below: bool,
+    /// Points inserted into its contour curves where keyhole slits meet them (see
+    /// `geometry::keyhole::with_feet`): on the contours, but not input points.
+    pub inserted: usize,
 }
 
 impl Region {
@@ -59,6 +62,7 @@ impl Region {
             .skip(self.joint_below as usize)
             .filter(|c| matches!(c.origin, CurveOrigin::Contour { .. }))
             .map(|c| c.points.len())
-            .sum()
+            .sum::<usize>()
+            .saturating_sub(self.inserted)
     }
 }

@@ -616,6 +616,7 @@ impl Assembler {
                 )));
             }
             if let Some(last) = r.curves.last_mut() {
+                r.inserted += ring.len().saturating_sub(last.points.len());
                 last.points = ring;
             }
             self.close(r, closed);
@@ -631,6 +632,7 @@ impl Assembler {
             }],
             seal: Vec::new(),
             joint_below: false,
+            inserted: 0,
         })
     }
 
@@ -654,6 +656,9 @@ impl Assembler {
         self.close(r, closed);
         let ids = std::iter::once(&joined.contour).chain(&joined.holes);
         for (n, (&c, points)) in ids.zip(k.rings).enumerate() {
+            let inserted = points
+                .len()
+                .saturating_sub(section.contours[c].points.len());
             next[c] = Some(Region {
                 id: 0,
                 hole: n > 0,
@@ -666,6 +671,7 @@ impl Assembler {
                 }],
                 seal: Vec::new(),
                 joint_below: false,
+                inserted,
             });
         }
     }
@@ -705,6 +711,7 @@ impl Assembler {
                             curves: joint.into_iter().collect(),
                             seal: Vec::new(),
                             joint_below: true,
+                            inserted: 0,
                         };
                     }
                     next[*upper] = Some(r);
@@ -788,6 +795,7 @@ impl Assembler {
                             curves: vec![RegionCurve { points, origin }],
                             seal: seal.take().unwrap_or_default(),
                             joint_below: false,
+                            inserted: 0,
                         };
                         // Holes of the intermediate section over the keyhole's holes start
                         // their walls there; the keyhole joins only the others, if any.
@@ -798,6 +806,7 @@ impl Assembler {
                                 curves: vec![RegionCurve { points, origin }, contour_curve(up, h)],
                                 seal: Vec::new(),
                                 joint_below: false,
+                                inserted: 0,
                             });
                         }
                         let key = upper_joined
@@ -865,6 +874,7 @@ impl Assembler {
                                 curves: vec![end, contour_curve(section, k)],
                                 seal: seal.take().unwrap_or_default(),
                                 joint_below: false,
+                                inserted: 0,
                             });
                         }
                     }
