@@ -24,7 +24,7 @@
 //! contour, hole or earlier slit except at its own two ends, and whose midpoint lies in the
 //! material and outside the other slice's contour.
 
-use super::polygon::{contains, orient, Point};
+use super::polygon::{contains, perimeter, segments_intersect, Point};
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
 /// candidate's length (then all of them).
@@ -92,7 +92,7 @@ pub fn slits(
                 && !holes.iter().chain(other_holes).any(|h| contains(h, mid))
                 && !outside_of.iter().any(|o| contains(o, mid))
                 && !crosses_walls(a, b, &walls, s)
-                && !made.iter().any(|&(p, q)| touches(a, b, p, q))
+                && !made.iter().any(|&(p, q)| segments_intersect(a, b, p, q))
         };
         let slit = shortest(&rings, h, step, admissible)?;
         made.push((at(&rings, slit.from), at(&rings, slit.to)));
@@ -112,50 +112,33 @@ fn project(a: Point, b: Point, p: Point) -> f64 {
     }
 }
 
-/// The point of edge `e` of `ring` closest to `p`, as a foot snapped to a vertex when close.
-fn foot(ring_id: usize, ring: &[Point], e: usize, p: Point) -> Foot {
-    let n = ring.len();
-    let t = project(ring[e], ring[(e + 1) % n], p);
-    if t < SNAP {
-        Foot {
-            ring: ring_id,
-            edge: e,
-            t: 0.0,
-        }
+/// The point `t` of the way along edge `e` of a ring of `n` points, as a foot snapped to a
+/// vertex when close.
+fn snapped(ring: usize, n: usize, e: usize, t: f64) -> Foot {
+    let (edge, t) = if t < SNAP {
+        (e, 0.0)
     } else if t > 1.0 - SNAP {
-        Foot {
-            ring: ring_id,
-            edge: (e + 1) % n,
-            t: 0.0,
-        }
+        ((e + 1) % n, 0.0)
     } else {
-        Foot {
-            ring: ring_id,
-            edge: e,
-            t,
-        }
-    }
+        (e, t)
+    };
+    Foot { ring, edge, t }
 }
 
 /// The nearest points of `ring` to `p` that are local minima of the distance along the
 /// ring (each distinct foot once).
 fn local_feet(ring_id: usize, ring: &[Point], p: Point, out: &mut Vec<Foot>) {
     let n = ring.len();
-    let d2 = |q: Point| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
-    let raw: Vec<(f64, f64)> = (0..n)
-        .map(|e| {
-            let (a, b) = (ring[e], ring[(e + 1) % n]);
-            let t = project(a, b, p);
-            (t, d2([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]))
-        })
+    // Where along each edge its point nearest to `p` lies.
+    let nearest: Vec<f64> = (0..n)
+        .map(|e| project(ring[e], ring[(e + 1) % n], p))
         .collect();
-    for e in 0..n {
-        let (t, _) = raw[e];
+    for (e, &t) in nearest.iter().enumerate() {
         let interior = t > 0.0 && t < 1.0;
         // A vertex is a local minimum when the edges either side both end nearest at it.
-        let at_vertex = t == 0.0 && raw[(e + n - 1) % n].0 == 1.0;
+        let at_vertex = t == 0.0 && nearest[(e + n - 1) % n] == 1.0;
         if interior || at_vertex {
-            let f = foot(ring_id, ring, e, p);
+            let f = snapped(ring_id, n, e, t);
             if out.last() != Some(&f) {
                 out.push(f);
             }
@@ -273,26 +256,43 @@ fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], s: &Slit) -> bool {
             {
                 return false;
             }
-            touches(a, b, p, q)
+            segments_intersect(a, b, p, q)
         })
     })
 }
 
-/// Closed segments `a`–`b` and `p`–`q` meet (a shared end point counts).
-fn touches(a: Point, b: Point, p: Point, q: Point) -> bool {
-    let (o1, o2) = (orient(a, b, p), orient(a, b, q));
-    let (o3, o4) = (orient(p, q, a), orient(p, q, b));
-    if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
-        return true;
-    }
-    let on = |s: Point, t: Point, x: Point, o: f64| {
-        o == 0.0
-            && x[0] >= s[0].min(t[0])
-            && x[0] <= s[0].max(t[0])
-            && x[1] >= s[1].min(t[1])
-            && x[1] <= s[1].max(t[1])
+/// Where slit ends are searched along the rings (mm) for `hole`: fine against its size, as a
+/// mouth may be narrow, but not below the contours' own precision.
+pub fn search_step(hole: &[Point]) -> f64 {
+    (perimeter(hole) / 256.0).max(0.02)
+}
+
+/// `rings` (the contour, then the holes `slits` join) with the slits' feet inserted, and the
+/// keyhole loop joining them, its slits cut into pieces of at most `step` mm: for points in
+/// the plane or in space.
+pub fn join_rings<const D: usize>(
+    rings: &[&[[f64; D]]],
+    slits: &[Slit],
+    step: f64,
+) -> (Vec<Vec<[f64; D]>>, Vec<[f64; D]>) {
+    let lerp = |a: [f64; D], b: [f64; D], t: f64| -> [f64; D] {
+        std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
     };
-    on(a, b, p, o1) || on(a, b, q, o2) || on(p, q, a, o3) || on(p, q, b, o4)
+    let with: Vec<Vec<[f64; D]>> = rings
+        .iter()
+        .enumerate()
+        .map(|(r, pts)| with_feet(pts, r, slits, lerp))
+        .collect();
+    let refs: Vec<&[[f64; D]]> = with.iter().map(|r| r.as_slice()).collect();
+    let pieces = |a: [f64; D], b: [f64; D]| {
+        let len = (0..D).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
+        ((len / step).ceil() as usize).clamp(1, 4096)
+    };
+    let between = |a: [f64; D], b: [f64; D], n: usize| -> Vec<[f64; D]> {
+        (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
+    };
+    let joined = keyhole_loop(&refs, slits, pieces, between);
+    (with, joined)
 }
 
 /// Ring `ring` of a keyhole with the feet of `slits` that fall inside its edges inserted

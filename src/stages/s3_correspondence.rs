@@ -17,9 +17,9 @@ use crossbeam_channel::Sender;
 
 use super::{Control, StageStats};
 use crate::geometry::contours::nesting;
-use crate::geometry::keyhole::{slits, Slit};
+use crate::geometry::keyhole::{search_step, slits, Slit};
 use crate::geometry::overlap::{overlap_area, regions_overlap, Region as Material};
-use crate::geometry::polygon::{bbox, perimeter, signed_area, Point};
+use crate::geometry::polygon::{bbox, signed_area, Point};
 use crate::section::Section;
 use crate::{Error, Result};
 
@@ -53,23 +53,29 @@ impl Joined {
 }
 
 impl Problem {
+    /// The keyholes of this problem on the lower section (`lower`) or the upper one.
+    fn keyholes(&self, lower: bool) -> Vec<&Joined> {
+        match (self, lower) {
+            (Problem::Keyhole { lower: j, .. }, true)
+            | (Problem::Keyhole { upper: j, .. }, false)
+                if j.is_keyhole() =>
+            {
+                vec![j]
+            }
+            (Problem::Branch { lower_joined, .. }, true) => lower_joined.iter().collect(),
+            (Problem::Branch { upper_joined, .. }, false) => upper_joined.iter().collect(),
+            _ => Vec::new(),
+        }
+    }
+
     /// Whether lower contour `k` ends here in a keyhole (its regions close on it).
     pub fn ends_in_keyhole(&self, k: usize) -> bool {
-        match self {
-            Problem::Keyhole { lower, .. } => lower.contour == k && lower.is_keyhole(),
-            Problem::Branch { lower_joined, .. } => lower_joined.iter().any(|j| j.contour == k),
-            _ => false,
-        }
+        self.keyholes(true).iter().any(|j| j.contour == k)
     }
 
     /// The upper contours (outer and holes) that start here from a keyhole.
     fn starting_from_keyhole(&self) -> Vec<usize> {
-        let joined: Vec<&Joined> = match self {
-            Problem::Keyhole { upper, .. } if upper.is_keyhole() => vec![upper],
-            Problem::Branch { upper_joined, .. } => upper_joined.iter().collect(),
-            _ => Vec::new(),
-        };
-        joined
+        self.keyholes(false)
             .into_iter()
             .flat_map(|j| std::iter::once(j.contour).chain(j.holes.iter().copied()))
             .collect()
@@ -276,12 +282,6 @@ fn open_fraction(h: &[Point], others: &[&[Point]]) -> f64 {
     (1.0 - shared / area).clamp(0.0, 1.0)
 }
 
-/// Where slits may end, in mm along the rings: fine against the hole's size, as a mouth may
-/// be narrow, but not below the contours' own precision.
-fn slit_step(hole: &[Point]) -> f64 {
-    (perimeter(hole) / 256.0).max(0.02)
-}
-
 /// Contour `k` of `own` with those of its holes among `lone` that open onto the outside of
 /// `others` (the contours it links to), each kept only if it can join by a slit (with those
 /// kept before it).
@@ -306,7 +306,7 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
             .filter(|&h| own.hole[h] && own.arr.parent[h] == Some(k) && !trial.contains(&h))
             .map(|h| own.pts[h])
             .collect();
-        if let Some(s) = slits(own.pts[k], &joined, &rest, others, slit_step(own.pts[c])) {
+        if let Some(s) = slits(own.pts[k], &joined, &rest, others, search_step(own.pts[c])) {
             best.holes = trial;
             best.slits = s;
         }
@@ -395,22 +395,13 @@ fn join_keyholes(
             _ => p.clone(),
         })
         .collect();
-    let joined = |side: Side| -> Vec<usize> {
+    let joined = |lower: bool| -> Vec<usize> {
         out.iter()
-            .flat_map(|p| match (p, side) {
-                (Problem::Keyhole { lower, .. }, Side::Above) => lower.holes.clone(),
-                (Problem::Keyhole { upper, .. }, Side::Below) => upper.holes.clone(),
-                (Problem::Branch { lower_joined, .. }, Side::Above) => {
-                    lower_joined.iter().flat_map(|j| j.holes.clone()).collect()
-                }
-                (Problem::Branch { upper_joined, .. }, Side::Below) => {
-                    upper_joined.iter().flat_map(|j| j.holes.clone()).collect()
-                }
-                _ => Vec::new(),
-            })
+            .flat_map(|p| p.keyholes(lower))
+            .flat_map(|j| j.holes.iter().copied())
             .collect()
     };
-    let (joined_lower, joined_upper) = (joined(Side::Above), joined(Side::Below));
+    let (joined_lower, joined_upper) = (joined(true), joined(false));
     out.retain(|p| match p {
         Problem::Cap {
             side,

@@ -21,10 +21,10 @@ use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
-use crate::geometry::keyhole::{keyhole_loop, slits, with_feet};
+use crate::geometry::keyhole::{join_rings, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
-use crate::geometry::polygon::{contains, perimeter, signed_area};
+use crate::geometry::polygon::{contains, signed_area};
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
@@ -69,53 +69,36 @@ pub struct Keyhole {
     pub joined: Vec<[f64; 3]>,
 }
 
-/// How many pieces a slit from `a` to `b` is cut into: pieces of at most `step` mm.
-fn slit_pieces<const D: usize>(step: f64) -> impl Fn([f64; D], [f64; D]) -> usize {
-    move |a, b| {
-        let len = (0..D).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
-        ((len / step).ceil() as usize).clamp(1, 4096)
-    }
-}
-
-/// The `n − 1` points dividing `a`–`b` into `n` equal pieces.
-fn between<const D: usize>(a: [f64; D], b: [f64; D], n: usize) -> Vec<[f64; D]> {
-    (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
-}
-
-fn lerp<const D: usize>(a: [f64; D], b: [f64; D], t: f64) -> [f64; D] {
-    std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
-}
-
 /// Builds the keyhole `joined` of `section` from the contours' own patient points (so the
 /// loop shares them bit for bit), the slits sampled every `step` mm.
 fn keyhole_of(section: &Section, joined: &Joined, step: f64) -> Keyhole {
-    let rings: Vec<Vec<[f64; 3]>> = std::iter::once(joined.contour)
+    let curves: Vec<Vec<[f64; 3]>> = std::iter::once(joined.contour)
         .chain(joined.holes.iter().copied())
-        .enumerate()
-        .map(|(r, c)| with_feet(&contour_curve(section, c).points, r, &joined.slits, lerp))
+        .map(|c| contour_curve(section, c).points)
         .collect();
-    let refs: Vec<&[[f64; 3]]> = rings.iter().map(|r| r.as_slice()).collect();
-    let joined = keyhole_loop(&refs, &joined.slits, slit_pieces::<3>(step), between);
+    let refs: Vec<&[[f64; 3]]> = curves.iter().map(|c| c.as_slice()).collect();
+    let (rings, joined) = join_rings(&refs, &joined.slits, step);
     Keyhole { rings, joined }
 }
 
 /// The keyhole `joined` of `section` as a counter-clockwise polygon in `frame`, for the
 /// distance maps (the slits have no width, so the polygon bounds the material).
 fn keyhole_in(frame: &SliceFrame, section: &Section, joined: &Joined, step: f64) -> Vec<Point> {
-    let rings: Vec<Vec<Point>> = std::iter::once(joined.contour)
+    let polys: Vec<Vec<Point>> = std::iter::once(joined.contour)
         .chain(joined.holes.iter().copied())
-        .enumerate()
-        .map(|(r, c)| {
-            let pts: Vec<Point> = section.contours[c]
-                .points
-                .iter()
-                .map(|&p| frame.to_plane(section.frame.to_patient(p)))
-                .collect();
-            with_feet(&pts, r, &joined.slits, lerp)
-        })
+        .map(|c| in_frame(frame, section, c))
         .collect();
-    let refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
-    keyhole_loop(&refs, &joined.slits, slit_pieces::<2>(step), between)
+    let refs: Vec<&[Point]> = polys.iter().map(|p| p.as_slice()).collect();
+    join_rings(&refs, &joined.slits, step).1
+}
+
+/// Contour `k` of `section` in `frame`, as stored (holes clockwise).
+fn in_frame(frame: &SliceFrame, section: &Section, k: usize) -> Vec<Point> {
+    section.contours[k]
+        .points
+        .iter()
+        .map(|&p| frame.to_plane(section.frame.to_patient(p)))
+        .collect()
 }
 
 fn lift(frame: &SliceFrame, p: Point, dz: f64) -> [f64; 3] {
@@ -156,13 +139,8 @@ fn contour_curve(section: &Section, k: usize) -> RegionCurve {
 fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point>> {
     ids.iter()
         .map(|&k| {
-            let c = &section.contours[k];
-            let mut pts: Vec<Point> = c
-                .points
-                .iter()
-                .map(|&p| frame.to_plane(section.frame.to_patient(p)))
-                .collect();
-            if c.hole {
+            let mut pts = in_frame(frame, section, k);
+            if section.contours[k].hole {
                 pts.reverse();
             }
             pts
@@ -250,34 +228,22 @@ fn rejoin(
     if holes.is_empty() {
         return Some(plain);
     }
-    let in_frame = |c: usize| -> Vec<Point> {
-        section.contours[c]
-            .points
-            .iter()
-            .map(|&p| frame.to_plane(section.frame.to_patient(p)))
-            .collect()
-    };
-    let outer = in_frame(k);
-    let own: Vec<Vec<Point>> = holes.iter().map(|&h| in_frame(h)).collect();
+    let outer = in_frame(frame, section, k);
+    let own: Vec<Vec<Point>> = holes.iter().map(|&h| in_frame(frame, section, h)).collect();
     let others: Vec<Vec<Point>> = (0..section.contours.len())
-        .filter(|&h| {
-            section.contours[h].hole
-                && !holes.contains(&h)
-                && contains(
-                    &outer,
-                    frame.to_plane(section.frame.to_patient(section.contours[h].points[0])),
-                )
-        })
-        .map(in_frame)
+        .filter(|&h| section.contours[h].hole && !holes.contains(&h))
+        .map(|h| in_frame(frame, section, h))
+        .filter(|h| h.first().is_some_and(|&p| contains(&outer, p)))
         .collect();
     let own_refs: Vec<&[Point]> = own.iter().map(|h| h.as_slice()).collect();
     let other_refs: Vec<&[Point]> = others.iter().map(|h| h.as_slice()).collect();
-    let step = own
-        .iter()
-        .map(|h| perimeter(h))
-        .fold(f64::INFINITY, f64::min)
-        / 256.0;
-    let cuts = slits(&outer, &own_refs, &other_refs, outside_of, step.max(0.02))?;
+    let cuts = slits(
+        &outer,
+        &own_refs,
+        &other_refs,
+        outside_of,
+        min_search_step(&own_refs),
+    )?;
     Some(Joined {
         holes: holes.to_vec(),
         slits: cuts,
@@ -297,31 +263,24 @@ fn join_holes(
 ) {
     let Intermediate::Loop(outer) = c else { return };
     let refs: Vec<&[Point]> = holes.iter().map(|h| h.as_slice()).collect();
-    let step = holes
-        .iter()
-        .map(|h| perimeter(h))
-        .fold(f64::INFINITY, f64::min)
-        / 256.0;
-    match slits(outer, &refs, &[], outside_of, step.max(0.02)) {
+    match slits(outer, &refs, &[], outside_of, min_search_step(&refs)) {
         Some(cuts) => {
-            let rings: Vec<Vec<Point>> = std::iter::once(outer.as_slice())
-                .chain(refs.iter().copied())
-                .enumerate()
-                .map(|(r, pts)| with_feet(pts, r, &cuts, lerp))
-                .collect();
-            let ring_refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
-            *outer = keyhole_loop(
-                &ring_refs,
-                &cuts,
-                slit_pieces::<2>(slit_step(cell_mm)),
-                between,
-            );
+            let rings: Vec<&[Point]> = std::iter::once(outer.as_slice()).chain(refs).collect();
+            *outer = join_rings(&rings, &cuts, slit_step(cell_mm)).1;
         }
         None => warn(format!(
             "{} hole(s) of an intermediate contour could not be joined to it by a slit; filled",
             holes.len()
         )),
     }
+}
+
+/// The finest of the holes' slit search steps (see [`search_step`]).
+fn min_search_step(holes: &[&[Point]]) -> f64 {
+    holes
+        .iter()
+        .map(|h| search_step(h))
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Slits are sampled at twice the distance-map cell, like the ridge loops' paths.
@@ -391,10 +350,8 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             let mut warn = |w: String| ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             // Where M_t has holes: an upper keyhole whose holes they match starts them as
             // hole walls of their own; every other loop takes its holes in by slits.
-            let mut upper_keys: Vec<(Joined, Keyhole)> = upper_joined
-                .iter()
-                .map(|j| (j.clone(), keyhole_of(up, j, step)))
-                .collect();
+            // The holes each upper keyhole really joins; its loop is built once they are known.
+            let mut upper_final: Vec<Joined> = upper_joined.clone();
             let mut hole_loops: Vec<Option<Vec<(usize, Intermediate)>>> = vec![None; upper.len()];
             for (n, holes) in r.upper_holes.into_iter().enumerate() {
                 if holes.is_empty() {
@@ -417,8 +374,7 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                         rejoin(up, j.contour, &left, &a_refs, &lo.frame)
                     };
                     if let Some(rebuilt) = rebuilt {
-                        let key = keyhole_of(up, &rebuilt, step);
-                        upper_keys[ji] = (rebuilt, key);
+                        upper_final[ji] = rebuilt;
                         hole_loops[n] = Some(
                             pairs
                                 .into_iter()
@@ -448,7 +404,13 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     .iter()
                     .map(|j| keyhole_of(lo, j, step))
                     .collect(),
-                upper_keyholes: upper_keys,
+                upper_keyholes: upper_final
+                    .into_iter()
+                    .map(|j| {
+                        let key = keyhole_of(up, &j, step);
+                        (j, key)
+                    })
+                    .collect(),
             })
         }
         Problem::Cap { side, outer, holes } => {
