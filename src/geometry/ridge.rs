@@ -138,10 +138,27 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64) -> Option<Vec<Point>> 
     if first > half / TIP_TRIM_MAX || last < half - half / TIP_TRIM_MAX {
         return None;
     }
-    let path = &path[first..=last];
-    let ends = path.len() - 1;
+    let kept = settled_path(&path[first..=last], tol, crosses_contour)?;
+    let k = kept.len();
+    if k < 3 {
+        return None;
+    }
+    // Out along the path, back over its interior points.
+    let mut ridge = kept.clone();
+    ridge.extend(kept[1..k - 1].iter().rev());
+    Some(ridge)
+}
 
-    // Compress the path (its ends stay), then check it is simple and inside.
+/// `path` compressed within `tol` (its ends stay), if it stays a clean path: no edge
+/// `crosses_contour`, no turn sharper than 135°, and non-adjacent edges at
+/// least `tol` apart (or later vertex welding would merge the two runs). A spike of the
+/// contour on one side makes a midpoint path run out and back, which these checks catch.
+pub(super) fn settled_path(
+    path: &[Point],
+    tol: f64,
+    crosses_contour: impl Fn(Point, Point) -> bool,
+) -> Option<Vec<Point>> {
+    let ends = path.len().checked_sub(1)?;
     let mut keep = vec![false; path.len()];
     keep[0] = true;
     keep[ends] = true;
@@ -150,12 +167,6 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64) -> Option<Vec<Point>> 
         .filter(|&i| keep[i])
         .map(|i| path[i])
         .collect();
-    if kept.len() < 3 {
-        return None;
-    }
-    // The path must not fold back on itself (a spike of the contour on one side makes the
-    // midpoints run out and back): no turn sharper than 135°, and non-adjacent edges at
-    // least `tol` apart, or later vertex welding would merge the two runs.
     let k = kept.len();
     for i in 0..k - 1 {
         if crosses_contour(kept[i], kept[i + 1]) {
@@ -183,16 +194,13 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64) -> Option<Vec<Point>> 
             }
         }
     }
-    // Out along the path, back over its interior points.
-    let mut ridge = kept.clone();
-    ridge.extend(kept[1..k - 1].iter().rev());
-    Some(ridge)
+    Some(kept)
 }
 
 /// Whether segments ab and cd cross at a point interior to both. Touching is not crossing,
 /// and a point within `eps` (mm) of a line counts as on it: resampled points lie on the
 /// contour's edges only within rounding.
-fn crosses(a: Point, b: Point, c: Point, d: Point, eps: f64) -> bool {
+pub(super) fn crosses(a: Point, b: Point, c: Point, d: Point, eps: f64) -> bool {
     let side = |p: Point, q: Point, r: Point| {
         let (x, e) = (orient(p, q, r), eps * dist(p, q));
         (x > e) as i8 - (x < -e) as i8
@@ -204,13 +212,13 @@ fn crosses(a: Point, b: Point, c: Point, d: Point, eps: f64) -> bool {
 
 /// Points of a closed polygon by arc length from its first vertex (any real, taken modulo the
 /// perimeter).
-struct ArcLength<'a> {
+pub(super) struct ArcLength<'a> {
     pts: &'a [Point],
     cum: Vec<f64>,
 }
 
 impl<'a> ArcLength<'a> {
-    fn new(pts: &'a [Point]) -> Self {
+    pub(super) fn new(pts: &'a [Point]) -> Self {
         let n = pts.len();
         let mut cum = Vec::with_capacity(n + 1);
         cum.push(0.0);
@@ -220,7 +228,7 @@ impl<'a> ArcLength<'a> {
         ArcLength { pts, cum }
     }
 
-    fn point(&self, s: f64) -> Point {
+    pub(super) fn point(&self, s: f64) -> Point {
         let n = self.pts.len();
         let total = self.cum[n];
         let s = s.rem_euclid(total);
