@@ -17,6 +17,49 @@ pub struct SliceFrame {
 }
 
 impl SliceFrame {
+    /// A frame in the plane of the planar loop `points` (its first point the origin), with
+    /// the normal of its area vector (Newell's): `None` for a loop of no area.
+    pub fn of_loop(points: &[[f64; 3]]) -> Option<SliceFrame> {
+        let o = *points.first()?;
+        let n = points.len();
+        let mut area = [0.0; 3];
+        for i in 0..n {
+            let (a, b) = (points[i], points[(i + 1) % n]);
+            let c = cross(
+                [a[0] - o[0], a[1] - o[1], a[2] - o[2]],
+                [b[0] - o[0], b[1] - o[1], b[2] - o[2]],
+            );
+            area = [area[0] + c[0], area[1] + c[1], area[2] + c[2]];
+        }
+        let unit = |v: [f64; 3]| {
+            let len = dot(v, v).sqrt();
+            (len > 0.0 && len.is_finite()).then(|| [v[0] / len, v[1] / len, v[2] / len])
+        };
+        let normal = unit(area)?;
+        // The row along the loop's farthest point from the origin, off the normal.
+        let far = points.iter().copied().max_by(|a, b| {
+            let d = |q: [f64; 3]| {
+                dot(
+                    [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
+                    [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
+                )
+            };
+            d(*a).total_cmp(&d(*b))
+        })?;
+        let d = [far[0] - o[0], far[1] - o[1], far[2] - o[2]];
+        let along = dot(d, normal);
+        let row = unit([
+            d[0] - along * normal[0],
+            d[1] - along * normal[1],
+            d[2] - along * normal[2],
+        ])?;
+        Some(SliceFrame {
+            origin: o,
+            row,
+            col: cross(normal, row),
+        })
+    }
+
     /// Unit normal `row × col`; slices are ordered by `origin · normal`.
     pub fn normal(&self) -> [f64; 3] {
         let n = cross(self.row, self.col);

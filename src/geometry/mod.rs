@@ -15,6 +15,7 @@ pub mod overlap;
 pub mod polygon;
 pub mod ridge;
 pub mod simplify;
+pub mod spur;
 mod zones;
 
 /// Errors of the geometry kernel; each states the numbers involved.

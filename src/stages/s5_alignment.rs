@@ -1,6 +1,8 @@
 //! Stage 5: contour alignment (METHOD.md §4, and beyond the paper: see
 //! [`crate::geometry::alignment`]). Each region's loops are rotated to start where they
-//! correspond; shapes and orientation are unchanged.
+//! correspond; orientation is unchanged. Beyond the paper, an intermediate contour at either
+//! end of a region first grows a spur into each thin arm that the next curve has and it lacks
+//! ([`crate::geometry::spur`]), so that the arm's walls have somewhere to rise from.
 
 use std::time::Instant;
 
@@ -8,7 +10,9 @@ use crossbeam_channel::{Receiver, Sender};
 
 use super::{Control, StageStats};
 use crate::geometry::alignment::align_starts;
-use crate::region::Region;
+use crate::geometry::spur::{arm_spurs, with_spurs};
+use crate::region::{CurveOrigin, Region};
+use crate::section::{dot, SliceFrame};
 use crate::Result;
 
 pub const STAGE: &str = "alignment";
@@ -16,11 +20,51 @@ pub const STAGE: &str = "alignment";
 /// `tolerance`: the fitting tolerance (mm); starts are placed to a quarter of it along the
 /// loops.
 pub fn align(region: &mut Region, tolerance: f64) {
+    add_arm_spurs(region, tolerance);
     let curves: Vec<&[[f64; 3]]> = region.curves.iter().map(|c| c.points.as_slice()).collect();
     let starts = align_starts(&curves, 0.25 * tolerance);
     for (curve, s) in region.curves.iter_mut().zip(starts) {
         curve.points.rotate_left(s);
     }
+}
+
+/// An arm's points are farther than this many times the distance between the planes (or
+/// [`ARM_TOLERANCES`] tolerances, if more) outside the intermediate contour: walls that
+/// slope less than 1 in 4 between an intermediate contour and its neighbour.
+const ARM_REACH_PLANES: f64 = 4.0;
+const ARM_TOLERANCES: f64 = 2.0;
+
+/// Spurs into the arms beside `region`'s intermediate end curves (see the module doc);
+/// returns how many.
+pub fn add_arm_spurs(region: &mut Region, tolerance: f64) -> usize {
+    let n = region.curves.len();
+    if n < 2 {
+        return 0;
+    }
+    let mut count = 0;
+    for (end, beside) in [(0, 1), (n - 1, n - 2)] {
+        let (lp, next) = (&region.curves[end], &region.curves[beside]);
+        if matches!(lp.origin, CurveOrigin::Cap { .. }) || lp.is_point() || next.is_point() {
+            continue;
+        }
+        let Some(frame) = SliceFrame::of_loop(&lp.points) else {
+            continue;
+        };
+        let gap = (dot(next.points[0], frame.normal()) - frame.height()).abs();
+        let reach = (ARM_REACH_PLANES * gap).max(ARM_TOLERANCES * tolerance);
+        let flat = |c: &[[f64; 3]]| c.iter().map(|&p| frame.to_plane(p)).collect::<Vec<_>>();
+        let (a, b) = (flat(&lp.points), flat(&next.points));
+        let spurs = arm_spurs(&a, &b, reach, reach / 4.0, tolerance / 16.0);
+        // The loop's own vertices keep their coordinates bit for bit (the regions across the
+        // plane share them); only the spurs' points are new.
+        let points = with_spurs(&lp.points, &spurs, |p| frame.to_patient(p));
+        if matches!(lp.origin, CurveOrigin::Contour { .. }) {
+            region.inserted += points.len() - lp.points.len();
+        }
+        region.curves[end].points = points;
+        count += spurs.len();
+    }
+    count
 }
 
 pub fn run(
