@@ -196,3 +196,86 @@ pub fn run_images(images: &VecImages, out: &Path, config: &RunConfig) -> bskin::
         &|_| {},
     )
 }
+
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Whether the segment pq passes through the interior of triangle `t`: its ends strictly on
+/// both sides of the plane and the crossing point strictly inside, each beyond `eps` mm.
+fn segment_crosses_triangle(p: [f64; 3], q: [f64; 3], t: &[[f64; 3]; 3], eps: f64) -> bool {
+    let n = cross3(sub(t[1], t[0]), sub(t[2], t[0]));
+    let len = dot(n, n).sqrt();
+    if len == 0.0 {
+        return false;
+    }
+    let n = [n[0] / len, n[1] / len, n[2] / len];
+    let (dp, dq) = (dot(sub(p, t[0]), n), dot(sub(q, t[0]), n));
+    if !((dp > eps && dq < -eps) || (dp < -eps && dq > eps)) {
+        return false;
+    }
+    let s = dp / (dp - dq);
+    let x: [f64; 3] = std::array::from_fn(|d| p[d] + s * (q[d] - p[d]));
+    (0..3).all(|i| {
+        let (a, b) = (t[i], t[(i + 1) % 3]);
+        let e = sub(b, a);
+        let el = dot(e, e).sqrt();
+        // Distance of x inside the edge's line, in the triangle's plane.
+        el > 0.0 && dot(cross3(e, sub(x, a)), n) / el > eps
+    })
+}
+
+/// Which faces of a triangle soup cross another face sharing no vertex with it (an edge of one
+/// passes through the other's interior by more than `eps` mm), as MeshLab's self-intersection
+/// selection finds them. Candidate pairs from a grid of bounding boxes.
+pub fn crossing_faces(tris: &[[[f64; 3]; 3]], eps: f64) -> Vec<bool> {
+    use std::collections::{HashMap, HashSet};
+    let edge_sum: f64 = tris
+        .iter()
+        .map(|t| {
+            (0..3)
+                .map(|i| dot(sub(t[i], t[(i + 1) % 3]), sub(t[i], t[(i + 1) % 3])).sqrt())
+                .sum::<f64>()
+        })
+        .sum();
+    let cell = (2.0 * edge_sum / (3 * tris.len().max(1)) as f64).max(1e-6);
+    let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (i, t) in tris.iter().enumerate() {
+        let lo: [i64; 3] = std::array::from_fn(|d| {
+            (t.iter().map(|p| p[d]).fold(f64::MAX, f64::min) / cell).floor() as i64
+        });
+        let hi: [i64; 3] = std::array::from_fn(|d| {
+            (t.iter().map(|p| p[d]).fold(f64::MIN, f64::max) / cell).floor() as i64
+        });
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    grid.entry([x, y, z]).or_default().push(i);
+                }
+            }
+        }
+    }
+    let mut tested: HashSet<(usize, usize)> = HashSet::new();
+    let mut crossing = vec![false; tris.len()];
+    for faces in grid.values() {
+        for (k, &i) in faces.iter().enumerate() {
+            for &j in &faces[k + 1..] {
+                let (a, b) = (&tris[i], &tris[j]);
+                if a.iter().any(|p| b.contains(p)) || !tested.insert((i.min(j), i.max(j))) {
+                    continue;
+                }
+                let hit = (0..3).any(|e| segment_crosses_triangle(a[e], a[(e + 1) % 3], b, eps))
+                    || (0..3).any(|e| segment_crosses_triangle(b[e], b[(e + 1) % 3], a, eps));
+                if hit {
+                    crossing[i] = true;
+                    crossing[j] = true;
+                }
+            }
+        }
+    }
+    crossing
+}
