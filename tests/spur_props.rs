@@ -1,0 +1,83 @@
+//! Property tests of arm spurs (`geometry::spur`): on random curved slivers (a ring sector of
+//! random radius, width and sweep, anywhere, either orientation) whose loop covers only the
+//! start, the neighbour's arm gets one spur, which runs inside the arm along its medial arc
+//! nearly to its tip, outside the loop; the spurred loop is weakly simple, has the loop's area
+//! and visits each spur point twice but the tip.
+
+use bskin::geometry::polygon::{contains, is_weakly_simple, signed_area, Point};
+use bskin::geometry::spur::{arm_spurs, with_spurs};
+use proptest::prelude::*;
+
+/// A ring sector round `c` of radii r0 < r1 over angles a0..a1, `n` points per side,
+/// counter-clockwise (clockwise when `!ccw`).
+fn band(c: Point, r0: f64, r1: f64, a0: f64, a1: f64, n: usize, ccw: bool) -> Vec<Point> {
+    let at = |r: f64, k: usize| {
+        let a = a0 + (a1 - a0) * k as f64 / n as f64;
+        [c[0] + r * a.cos(), c[1] + r * a.sin()]
+    };
+    let mut pts: Vec<Point> = (0..=n).map(|k| at(r1, k)).collect();
+    pts.extend((0..=n).rev().map(|k| at(r0, k)));
+    if !ccw {
+        pts.reverse();
+    }
+    pts
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 64,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn a_spur_runs_along_the_arm_the_loop_lacks(
+        c in (-200.0f64..200.0, -200.0f64..200.0),
+        radius in 30.0f64..150.0,
+        width in 1.0f64..4.0,
+        start in 0.0f64..std::f64::consts::TAU,
+        covered in 10.0f64..60.0,
+        arm in 20.0f64..120.0,
+        ccw in any::<bool>(),
+    ) {
+        let c = [c.0, c.1];
+        let (r0, r1) = (radius - width / 2.0, radius + width / 2.0);
+        // Sweeps from arc lengths along the medial line; about one point per mm.
+        let (a1, a2) = (start + covered / radius, start + (covered + arm) / radius);
+        let lp = band(c, r0, r1, start, a1, covered.ceil() as usize, ccw);
+        let nb = band(c, r0, r1, start, a2, (covered + arm).ceil() as usize, ccw);
+        let reach = 2.0;
+        let spurs = arm_spurs(&lp, &nb, reach, reach / 4.0, 0.03);
+        prop_assert_eq!(spurs.len(), 1);
+        let path = &spurs[0].path;
+        let polar = |p: Point| {
+            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+            (dx.hypot(dy), (dy.atan2(dx) - start).rem_euclid(std::f64::consts::TAU))
+        };
+        for &p in path {
+            let (r, a) = polar(p);
+            // In the arm, beyond the loop, on the medial arc (sampling and compression
+            // keep it within a quarter of the width; the tip's last chords are the shortest).
+            prop_assert!(a >= a1 - start - 1e-9 && a <= a2 - start + 1e-9, "angle {} of {}..{}", a, a1 - start, a2 - start);
+            prop_assert!(!contains(&lp, p));
+            prop_assert!(contains(&nb, p) || (r - radius).abs() <= width / 2.0 + 1e-6);
+            prop_assert!((r - radius).abs() <= 0.25 * width + 0.05, "radius {} of {}", r, radius);
+        }
+        // It reaches the arm's tip, within the width, and starts within a few reaches of
+        // the loop's end.
+        let (_, tip) = polar(path[path.len() - 1]);
+        prop_assert!((a2 - start - tip) * radius <= width + 0.5, "tip {} mm short", (a2 - start - tip) * radius);
+        let (_, root) = polar(path[0]);
+        prop_assert!((root - (a1 - start)) * radius <= 4.0 * reach + width, "root {} mm out", (root - (a1 - start)) * radius);
+        // The spurred loop: same area, weakly simple, spur points visited twice but the tip.
+        let spurred = with_spurs(&lp, &spurs, |p| p);
+        prop_assert!((signed_area(&spurred) - signed_area(&lp)).abs() <= 1e-9 * signed_area(&lp).abs().max(1.0));
+        prop_assert!(is_weakly_simple(&spurred));
+        let visits = |q: Point| spurred.iter().filter(|&&p| p == q).count();
+        prop_assert_eq!(visits(path[path.len() - 1]), 1);
+        for &p in &path[..path.len() - 1] {
+            prop_assert_eq!(visits(p), 2);
+        }
+        prop_assert_eq!(visits(lp[spurs[0].from]), 2);
+    }
+}
