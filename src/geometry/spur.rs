@@ -1,5 +1,6 @@
-//! Arm spurs (beyond the paper): a thin arm that grows between an intermediate contour and
-//! the next contour of its region.
+//! Arm spurs (beyond the paper): a thin arm that the curve beside a region's end curve has and
+//! the end curve lacks, most often an arm that grows between an intermediate contour and the
+//! next contour.
 //!
 //! A branching's intermediate contour often ends well short of an arm that the contour half a
 //! slice away has: on the skull, a sliver of bone 2 mm wide that reaches 100 mm further one
@@ -21,10 +22,12 @@
 //! An arm is a run of the neighbour's samples farther than `reach` outside the loop, at least
 //! [`ARM_REACHES`] reaches deep. Its two walls pair at equal fractions of their lengths from the
 //! base, with the tip that makes the pairs closest, like a ridge loop's sides; the arm must be
-//! [`ARM_RATIO`] times deeper than the pairs' mean distance, and the spur runs through their
-//! midpoints. It is
-//! kept only if every cross chord stays inside the neighbour and the spur crosses neither
-//! curve nor folds.
+//! [`ARM_RATIO`] times deeper than the pairs' mean distance. Where the root widens, the walls
+//! are paired again from where its chords come clean, and the spur runs through the pairs'
+//! midpoints. It is kept only if every cross chord stays inside the neighbour, the spur
+//! crosses neither curve nor folds, and one of the loop's own vertices lies within
+//! [`ARM_REACHES`] reaches of its root: no vertex is inserted, as the loops across the plane
+//! share the loop's vertices and no others.
 
 use std::collections::HashMap;
 
