@@ -18,15 +18,19 @@
 //!   onto the inner boundary of its zone and each hole onto the outer boundary of its zone.
 //!   These loops are ridge (medial-axis) loops: with one hole both are the same loop, so the
 //!   outer and hole surfaces meet along it and the solid closes like a torus, with no
-//!   membrane over the hole. If a zone boundary has several candidate loops the largest is
-//!   used (with a warning); if it has none the cap degenerates to the innermost point (with
-//!   a warning).
+//!   membrane over the hole. Where the outer contour's zone rings several groups of holes
+//!   (the material between them is its), its inner boundaries are joined by zero-width
+//!   slits through the zone ([`super::bridges`]), so the outer wall closes onto every group's
+//!   ridge. If a hole's zone boundary has several candidate loops the largest is used (with
+//!   a warning); if a zone has none the cap degenerates to the innermost point (with a
+//!   warning).
 //!
 //! Invariants: every loop is counter-clockwise and simple, except a ridge loop (zero width,
 //! weakly simple); shared ridge chains are compressed identically (within a quarter cell);
 //! deterministic; errors, not panics, on bad input.
 
 use super::branching::{raster_for, Intermediate, EXACT_MARGIN_CELLS, SIMPLIFY_TOL_CELLS};
+use super::bridges::join_pieces;
 use super::distance_map::{
     inside_mask, mark_label_band, nearest_contours_within, validate_polygons, Grid, SeedField,
 };
@@ -127,50 +131,71 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
         let n = |k: usize| neg_psi(&near, label, k) as f32 as f64;
         zone_loops(&grid, &g, &n, None)
     };
-    let mut chosen: Vec<Option<Vec<Point>>> = Vec::with_capacity(all.len());
+    // Per label, its cap loops: one, or for the outer contour every inner boundary of its
+    // zone, largest first (each bounds the zones of some holes).
+    let mut chosen: Vec<Vec<Vec<Point>>> = Vec::with_capacity(all.len());
     for label in 0..all.len() {
-        let loops = zone_loops_of(label as u32);
-        // The outer contour's zone is bounded inside by the ridge (a clockwise hole loop of
+        let mut loops = zone_loops_of(label as u32);
+        // The outer contour's zone is bounded inside by the ridge (clockwise hole loops of
         // its zone region); a hole's zone outside by the ridge (counter-clockwise).
         let want_ccw = label > 0;
         let (best, count, _) = largest_loop(&loops, want_ccw);
-        let name = if label == 0 {
-            "outer contour".to_string()
-        } else {
-            format!("hole {}", label - 1)
-        };
-        if count > 1 {
-            warnings.push(format!(
-                "{name}: its zone has {count} ridge loops; capped onto the largest"
-            ));
-        }
-        chosen.push(best.map(|b| {
-            let mut lp = loops[b].clone();
-            if !want_ccw {
-                lp.reverse();
+        let mut kept: Vec<Vec<Point>> = Vec::new();
+        if let Some(b) = best {
+            kept.push(loops.swap_remove(b));
+            if label == 0 {
+                let mut rest: Vec<Vec<Point>> = loops
+                    .into_iter()
+                    .filter(|lp| signed_area(lp) < 0.0)
+                    .collect();
+                rest.sort_by(|a, b| signed_area(a).total_cmp(&signed_area(b)));
+                kept.extend(rest);
+            } else if count > 1 {
+                warnings.push(format!(
+                    "hole {}: its zone has {count} ridge loops; capped onto the largest",
+                    label - 1
+                ));
             }
-            lp
-        }));
+        }
+        if !want_ccw {
+            kept.iter_mut().for_each(|lp| lp.reverse());
+        }
+        chosen.push(kept);
     }
     let found: Vec<Vec<Point>> = chosen.iter().flatten().cloned().collect();
-    let mut compressed = simplify_shared(&found, SIMPLIFY_TOL_CELLS * grid.cell_mm).into_iter();
+    let compressed = simplify_shared(&found, SIMPLIFY_TOL_CELLS * grid.cell_mm);
+    let all_loops: Vec<&[Point]> = compressed.iter().map(|l| l.as_slice()).collect();
+    let mut next = 0;
     let mut caps: Vec<Intermediate> = Vec::with_capacity(all.len());
     for (label, c) in chosen.iter().enumerate() {
-        let lp = if c.is_some() { compressed.next() } else { None };
-        match lp {
-            Some(lp) => caps.push(Intermediate::Loop(lp)),
-            _ => {
-                let p = innermost(&grid, &all, &neg_sdm);
-                warnings.push(format!(
-                    "{}: no ridge loop found; capped at the innermost point {p:?}",
-                    if label == 0 {
-                        "outer contour".to_string()
-                    } else {
-                        format!("hole {}", label - 1)
-                    }
-                ));
-                caps.push(Intermediate::Point(p));
-            }
+        let own = &compressed[next..next + c.len()];
+        next += c.len();
+        if own.len() > 1 {
+            // The outer contour's zone rings several groups of holes: its loops are joined
+            // by slits through the zone (as a split zone's pieces are, `super::bridges`),
+            // so the outer wall closes onto the ridge round every group.
+            let joined = join_pieces(own, outer, &all_loops);
+            warnings.push(format!(
+                "outer contour: its zone has {} ridge loops; joined {} by bridges, dropped \
+                 {:.4} mm²",
+                own.len(),
+                joined.pieces,
+                joined.dropped_area
+            ));
+            caps.push(Intermediate::Loop(joined.points));
+        } else if let Some(lp) = own.first() {
+            caps.push(Intermediate::Loop(lp.clone()));
+        } else {
+            let p = innermost(&grid, &all, &neg_sdm);
+            warnings.push(format!(
+                "{}: no ridge loop found; capped at the innermost point {p:?}",
+                if label == 0 {
+                    "outer contour".to_string()
+                } else {
+                    format!("hole {}", label - 1)
+                }
+            ));
+            caps.push(Intermediate::Point(p));
         }
     }
     let mut caps = caps.into_iter();
@@ -298,6 +323,59 @@ mod tests {
             }
         }
         assert_eq!(o, h, "outer and hole close onto the same ridge loop");
+    }
+
+    /// Two discs (radius 12 at x = ±20) joined by a neck 4 mm wide, each with a hole (radius 4):
+    /// the material in the neck is nearer the outer contour than either hole, so the outer
+    /// contour's zone rings each hole's zone separately. Its cap joins both ridge loops by a
+    /// slit (before, it kept the larger and the other disc's outer wall swept onto it).
+    #[test]
+    fn a_dumbbell_with_a_hole_in_each_end_caps_its_outer_wall_onto_both_ridges() {
+        let (c, r, neck) = (20.0f64, 12.0f64, 2.0f64);
+        let a = (neck / r).asin();
+        let arc = |cx: f64, from: f64, to: f64| -> Vec<Point> {
+            (0..=200)
+                .map(|k| {
+                    let t = from + (to - from) * k as f64 / 200.0;
+                    [cx + r * t.cos(), r * t.sin()]
+                })
+                .collect()
+        };
+        let pi = std::f64::consts::PI;
+        // Counter-clockwise: round the right disc from its neck corner, along the neck's top,
+        // round the left disc, back along the neck's bottom.
+        let mut outer = arc(c, -pi + a, pi - a);
+        outer.extend(arc(-c, a, 2.0 * pi - a));
+        let holes = [
+            circle(-c, 0.0, 4.0, 300, false),
+            circle(c, 0.0, 4.0, 300, false),
+        ];
+        let refs: Vec<&[Point]> = holes.iter().map(|h| h.as_slice()).collect();
+        let caps = cap(&outer, &refs, 0.2).unwrap();
+        assert!(
+            caps.warnings.iter().all(|w| !w.contains("largest")),
+            "{:?}",
+            caps.warnings
+        );
+        let Intermediate::Loop(o) = &caps.outer else {
+            panic!("expected a loop: {caps:?}")
+        };
+        let mut area = 0.0;
+        for h in &caps.holes {
+            let Intermediate::Loop(h) = h else {
+                panic!("expected hole loops: {caps:?}")
+            };
+            // Every vertex of each hole's ridge loop is on the outer cap, bit for bit.
+            assert!(h.iter().all(|p| o.contains(p)));
+            area += signed_area(h);
+        }
+        // The slit adds no area: the outer cap bounds both ridges and nothing else.
+        assert!(crate::geometry::polygon::is_weakly_simple(o));
+        assert!(
+            (signed_area(o) - area).abs() < 1e-6 * area,
+            "{} vs {area}",
+            signed_area(o)
+        );
     }
 
     /// Widths of horizontal sections of a solid of revolution at the given heights below the
