@@ -8,6 +8,8 @@
 
 use std::path::PathBuf;
 
+use crate::bspline::vecops::{add, scale, sub};
+
 /// Position and orientation of one slice plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SliceFrame {
@@ -22,37 +24,21 @@ impl SliceFrame {
     pub fn of_loop(points: &[[f64; 3]]) -> Option<SliceFrame> {
         let o = *points.first()?;
         let n = points.len();
-        let mut area = [0.0; 3];
-        for i in 0..n {
-            let (a, b) = (points[i], points[(i + 1) % n]);
-            let c = cross(
-                [a[0] - o[0], a[1] - o[1], a[2] - o[2]],
-                [b[0] - o[0], b[1] - o[1], b[2] - o[2]],
-            );
-            area = [area[0] + c[0], area[1] + c[1], area[2] + c[2]];
-        }
+        let area = (0..n).fold([0.0; 3], |area, i| {
+            let (a, b) = (sub(&points[i], &o), sub(&points[(i + 1) % n], &o));
+            add(&area, &cross(a, b))
+        });
         let unit = |v: [f64; 3]| {
             let len = dot(v, v).sqrt();
-            (len > 0.0 && len.is_finite()).then(|| [v[0] / len, v[1] / len, v[2] / len])
+            (len > 0.0 && len.is_finite()).then(|| v.map(|x| x / len))
         };
         let normal = unit(area)?;
         // The row along the loop's farthest point from the origin, off the normal.
-        let far = points.iter().copied().max_by(|a, b| {
-            let d = |q: [f64; 3]| {
-                dot(
-                    [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
-                    [q[0] - o[0], q[1] - o[1], q[2] - o[2]],
-                )
-            };
-            d(*a).total_cmp(&d(*b))
-        })?;
-        let d = [far[0] - o[0], far[1] - o[1], far[2] - o[2]];
-        let along = dot(d, normal);
-        let row = unit([
-            d[0] - along * normal[0],
-            d[1] - along * normal[1],
-            d[2] - along * normal[2],
-        ])?;
+        let far = points
+            .iter()
+            .map(|q| sub(q, &o))
+            .max_by(|a, b| dot(*a, *a).total_cmp(&dot(*b, *b)))?;
+        let row = unit(sub(&far, &scale(&normal, dot(far, normal))))?;
         Some(SliceFrame {
             origin: o,
             row,

@@ -21,7 +21,7 @@
 //! bridge taken, has its midpoint inside the contour and outside every loop, and starts at
 //! vertices no other bridge uses. Pieces that no bridge reaches are dropped. Deterministic.
 
-use super::polygon::{contains, segments_intersect, signed_area, Point};
+use super::polygon::{boxes_disjoint, contains, segments_intersect, signed_area, Point};
 
 /// Closest vertex pairs tried per pair of pieces.
 const CANDIDATES_PER_PAIR: usize = 8;
@@ -183,24 +183,13 @@ fn clear(
     if p == q {
         return false;
     }
-    let (lo, hi) = (
-        [p[0].min(q[0]), p[1].min(q[1])],
-        [p[0].max(q[0]), p[1].max(q[1])],
-    );
     let crosses = |a: Point, b: Point| -> bool {
         if a == p || a == q || b == p || b == q {
             // An edge from an end of the bridge: it only meets the bridge there, unless it
             // runs along it (a bridge on an existing edge would give that edge to 3 faces).
             return along(p, q, a, b);
         }
-        if a[0].max(b[0]) < lo[0]
-            || a[0].min(b[0]) > hi[0]
-            || a[1].max(b[1]) < lo[1]
-            || a[1].min(b[1]) > hi[1]
-        {
-            return false;
-        }
-        segments_intersect(p, q, a, b)
+        !boxes_disjoint(a, b, p, q) && segments_intersect(p, q, a, b)
     };
     let edges_cross = |l: &[Point]| (0..l.len()).any(|e| crosses(l[e], l[(e + 1) % l.len()]));
     if edges_cross(contour) || loops.iter().any(|l| edges_cross(l)) {

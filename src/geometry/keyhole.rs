@@ -24,7 +24,7 @@
 //! contour, hole or earlier slit except at its own two ends, and whose midpoint lies in the
 //! material and outside the other slice's contour.
 
-use super::polygon::{contains, perimeter, segments_intersect, Point};
+use super::polygon::{boxes_disjoint, contains, perimeter, segments_intersect, Point};
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
 /// candidate's length (then all of them).
@@ -235,8 +235,6 @@ fn shortest(
 /// Whether `a`–`b` meets an edge of `walls` other than the edges at its own two feet (the
 /// first walls are the rings that the feet of `s` index).
 fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], s: &Slit) -> bool {
-    let lo = [a[0].min(b[0]), a[1].min(b[1])];
-    let hi = [a[0].max(b[0]), a[1].max(b[1])];
     // The edges a foot lies on: its own edge, and the one before when it is a vertex.
     let own = |w: usize, i: usize, f: Foot| {
         let n = walls[w].len();
@@ -249,14 +247,7 @@ fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], s: &Slit) -> bool {
                 return false;
             }
             let (p, q) = (wall[i], wall[(i + 1) % n]);
-            if p[0].max(q[0]) < lo[0]
-                || p[0].min(q[0]) > hi[0]
-                || p[1].max(q[1]) < lo[1]
-                || p[1].min(q[1]) > hi[1]
-            {
-                return false;
-            }
-            segments_intersect(a, b, p, q)
+            !boxes_disjoint(p, q, a, b) && segments_intersect(a, b, p, q)
         })
     })
 }

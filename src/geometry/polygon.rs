@@ -187,6 +187,15 @@ pub fn segments_intersect(a: Point, b: Point, c: Point, d: Point) -> bool {
         || (o4 == 0.0 && on_segment(c, d, b))
 }
 
+/// Whether the bounding boxes of segments ab and cd are apart: then the segments cannot meet,
+/// a cheap test before [`segments_intersect`] where most pairs are far apart.
+pub fn boxes_disjoint(a: Point, b: Point, c: Point, d: Point) -> bool {
+    a[0].max(b[0]) < c[0].min(d[0])
+        || a[0].min(b[0]) > c[0].max(d[0])
+        || a[1].max(b[1]) < c[1].min(d[1])
+        || a[1].min(b[1]) > c[1].max(d[1])
+}
+
 /// Two edges sharing a vertex overlap when they are collinear and point the same way from it.
 fn collinear_overlap(a: Point, b: Point, c: Point, d: Point) -> bool {
     let (shared, p, q) = if b == c {

@@ -115,10 +115,8 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64) -> Option<Vec<Point>> 
     // a straight stretch at a tip) but not cross it, and its midpoint is inside or on it.
     // Near a tip a dent may spoil short chords: the path is cut back past them (the tip's
     // contour points then rise to the path's new end), if that leaves most of it.
-    let m = contour.len();
     let eps = 1e-9 * length;
-    let crosses_contour =
-        |a: Point, b: Point| (0..m).any(|k| crosses(a, b, contour[k], contour[(k + 1) % m], eps));
+    let crosses_contour = |a: Point, b: Point| crosses_polygon(a, b, contour, eps);
     let on_or_inside = |p: Point| contains(contour, p) || boundary_distance(contour, p) < eps;
     let (mut first, mut last) = (0, half);
     for (i, &mid) in path.iter().enumerate().take(half).skip(1) {
@@ -195,6 +193,12 @@ pub(super) fn settled_path(
         }
     }
     Some(kept)
+}
+
+/// Whether segment ab [`crosses`] an edge of the closed polygon `poly`.
+pub(super) fn crosses_polygon(a: Point, b: Point, poly: &[Point], eps: f64) -> bool {
+    let n = poly.len();
+    (0..n).any(|k| crosses(a, b, poly[k], poly[(k + 1) % n], eps))
 }
 
 /// Whether segments ab and cd cross at a point interior to both. Touching is not crossing,

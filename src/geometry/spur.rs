@@ -34,7 +34,7 @@ use std::collections::HashMap;
 use super::polygon::{
     boundary_distance, contains, dist, perimeter, point_segment_distance, segments_intersect, Point,
 };
-use super::ridge::{crosses, settled_path, ArcLength};
+use super::ridge::{crosses_polygon, settled_path, ArcLength};
 
 /// An arm is at least this many reaches deep...
 pub const ARM_REACHES: f64 = 4.0;
@@ -150,10 +150,7 @@ fn arm_spur(
     // A chord's ends are interpolated between samples, off the wall by up to a corner's cut
     // (a 15° corner cuts about a sixteenth of a step): touching within that is not crossing.
     let eps = step / 16.0;
-    let k = neighbour.len();
-    let crosses_neighbour = |a: Point, b: Point| {
-        (0..k).any(|i| crosses(a, b, neighbour[i], neighbour[(i + 1) % k], eps))
-    };
+    let crosses_neighbour = |a: Point, b: Point| crosses_polygon(a, b, neighbour, eps);
     let clean = |(p, q): (Point, Point)| {
         let c = mid(p, q);
         (contains(neighbour, c) || boundary_distance(neighbour, c) < eps)
@@ -191,10 +188,8 @@ fn arm_spur(
         path.push(mid(p, q));
     }
     let n = lp.len();
-    let crosses_loop =
-        |a: Point, b: Point| (0..n).any(|i| crosses(a, b, lp[i], lp[(i + 1) % n], eps));
     let path = settled_path(&path, tol, |a, b| {
-        crosses_neighbour(a, b) || crosses_loop(a, b)
+        crosses_neighbour(a, b) || crosses_polygon(a, b, lp, eps)
     })?;
 
     // Leave from the loop vertex nearest the base, if the way there is clear of the loop. It
