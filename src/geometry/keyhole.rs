@@ -155,7 +155,6 @@ fn shortest(
     step: f64,
     admissible: impl Fn(&Slit) -> bool,
 ) -> Option<Slit> {
-    let hole = rings[h];
     let mut all: Vec<(f64, Slit)> = Vec::new();
     let mut feet = Vec::new();
     let len2 = |s: &Slit| {
@@ -185,25 +184,36 @@ fn shortest(
         }
         out
     };
+    // Slits from `sample` to its local feet on ring `onto`, the sample at the slit's `from`
+    // end when it lies on a ring before the hole (slits run from a contour ring to the hole).
+    let mut reach = |sample: Foot, onto: usize| {
+        feet.clear();
+        local_feet(onto, rings[onto], at(rings, sample), &mut feet);
+        all.extend(
+            feet.iter()
+                .map(|&foot| {
+                    if sample.ring < onto {
+                        Slit {
+                            from: sample,
+                            to: foot,
+                        }
+                    } else {
+                        Slit {
+                            from: foot,
+                            to: sample,
+                        }
+                    }
+                })
+                .map(|s| (len2(&s), s)),
+        );
+    };
     let hole_samples = samples(h);
-    for (r, &ring) in rings.iter().enumerate().take(h) {
+    for r in 0..h.min(rings.len()) {
         for from in samples(r) {
-            feet.clear();
-            local_feet(h, hole, at(rings, from), &mut feet);
-            all.extend(
-                feet.iter()
-                    .map(|&to| Slit { from, to })
-                    .map(|s| (len2(&s), s)),
-            );
+            reach(from, h);
         }
         for &to in &hole_samples {
-            feet.clear();
-            local_feet(r, ring, at(rings, to), &mut feet);
-            all.extend(
-                feet.iter()
-                    .map(|&from| Slit { from, to })
-                    .map(|s| (len2(&s), s)),
-            );
+            reach(to, r);
         }
     }
     let key = |s: &Slit| (s.from.ring, s.from.edge, s.to.ring, s.to.edge);
