@@ -23,15 +23,17 @@
 //! holes already joined) to a point of the hole that crosses and touches no contour, hole or
 //! earlier slit except at its own two ends, and whose midpoint lies in the material and
 //! outside the other slice's contour. Among such slits of about the shortest length (within
-//! a factor of [`ROUND_FACTORS`]), the one whose middle half lies farthest outside the other
-//! slice's contours wins: the wall that closes the mouth lies over the other slice's void,
-//! while a thin wall elsewhere between the hole and the outside lies over the other slice's
-//! thin wall, its midpoint at best just outside it. (On the skull the shortest slit of one
-//! keyhole, 1.2 mm, crossed such a wall with its midpoint 0.3 mm from the next slice's bone,
-//! 35 mm from the bay's mouth, where a 1.6 mm slit lay 1.6 mm clear; the bay's wall then
-//! swept across to the hole's, 1,164 faces crossing others. Ranking by the midpoint alone
-//! moved another keyhole's slit onto a long crossing whose ends lay over the next slice's
-//! bone: 2,319 faces.)
+//! a factor of [`ROUND_FACTORS`]), the shortest whose middle half (its quarter, half and
+//! three-quarter points) lies outside the other slice's contours wins; if none does, the one
+//! lying least inside them. The wall that closes the mouth lies over the other slice's
+//! void, while a thin wall elsewhere between the hole and the outside lies over the other
+//! slice's thin wall, its midpoint at best just outside it. (On the skull the shortest slit
+//! of one keyhole, 1.2 mm, crossed such a wall with its midpoint 0.3 mm from the next
+//! slice's bone, 35 mm from the bay's mouth, where a 1.6 mm slit lay 1.6 mm clear; the bay's
+//! wall then swept across to the hole's, 1,164 faces crossing others. Ranking by the
+//! midpoint alone moved another keyhole's slit onto a long crossing whose ends lay over the
+//! next slice's bone, 2,319 faces; preferring the clearest over the shortest clear slit cost
+//! the tilted GE head 2,750 crossing faces.)
 
 use super::polygon::{
     boundary_distance, boxes_disjoint, contains, perimeter, segments_intersect, Point,
@@ -180,10 +182,14 @@ fn local_feet(ring_id: usize, ring: &[Point], p: Point, out: &mut Vec<Foot>) {
     }
 }
 
+/// A `clearance` above this (mm) counts as lying clear.
+const CLEAR: f64 = 0.0;
+
 /// An admissible slit from rings `0..h` to ring `h` among the local minima of the distance
 /// from points every `step` mm along either side to the other (a mouth's narrowest crossing
 /// rarely ends at a vertex of either), tried in rounds of growing length: the first round
-/// holding an admissible slit gives its greatest `clearance` (ties: the shortest).
+/// holding an admissible slit gives its shortest with a `clearance` above [`CLEAR`], or
+/// failing that its greatest `clearance`.
 fn clearest_short(
     rings: &[&[Point]],
     h: usize,
@@ -270,9 +276,11 @@ fn clearest_short(
         .chain(std::iter::once(f64::INFINITY))
     {
         let end = all.partition_point(|c| c.0 < limit);
-        let mut round: Vec<(f64, usize)> =
-            (start..end).map(|i| (clearance(&all[i].1), i)).collect();
-        // Clearest first; the sort is stable, so equal clearances stay shortest first.
+        // Every slit lying clear counts alike (then the shortest wins, as the sort is
+        // stable); the others by how far they lie clear.
+        let mut round: Vec<(f64, usize)> = (start..end)
+            .map(|i| (clearance(&all[i].1).min(CLEAR), i))
+            .collect();
         round.sort_by(|x, y| y.0.total_cmp(&x.0));
         if let Some(&(_, i)) = round.iter().find(|&&(_, i)| admissible(&all[i].1)) {
             return Some(all[i].1);
