@@ -276,13 +276,21 @@ fn clearest_short(
         .chain(std::iter::once(f64::INFINITY))
     {
         let end = all.partition_point(|c| c.0 < limit);
-        // Every slit lying clear counts alike (then the shortest wins, as the sort is
-        // stable); the others by how far they lie clear.
-        let mut round: Vec<(f64, usize)> = (start..end)
-            .map(|i| (clearance(&all[i].1).min(CLEAR), i))
-            .collect();
-        round.sort_by(|x, y| y.0.total_cmp(&x.0));
-        if let Some(&(_, i)) = round.iter().find(|&&(_, i)| admissible(&all[i].1)) {
+        // Shortest first, the first admissible slit lying clear; the others kept, to be
+        // tried by how far they lie clear (the sort is stable: ties stay shortest first).
+        let mut unclear: Vec<(f64, usize)> = Vec::new();
+        for i in start..end {
+            let c = clearance(&all[i].1);
+            if c > CLEAR {
+                if admissible(&all[i].1) {
+                    return Some(all[i].1);
+                }
+            } else {
+                unclear.push((c, i));
+            }
+        }
+        unclear.sort_by(|x, y| y.0.total_cmp(&x.0));
+        if let Some(&(_, i)) = unclear.iter().find(|&&(_, i)| admissible(&all[i].1)) {
             return Some(all[i].1);
         }
         start = end;
