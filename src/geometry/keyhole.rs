@@ -279,11 +279,11 @@ fn clearest_short(
         // Shortest first, the first admissible slit lying clear; the others kept, to be
         // tried by how far they lie clear (the sort is stable: ties stay shortest first).
         let mut unclear: Vec<(f64, usize)> = Vec::new();
-        for i in start..end {
-            let c = clearance(&all[i].1);
+        for (i, (_, slit)) in all.iter().enumerate().take(end).skip(start) {
+            let c = clearance(slit);
             if c > CLEAR {
-                if admissible(&all[i].1) {
-                    return Some(all[i].1);
+                if admissible(slit) {
+                    return Some(*slit);
                 }
             } else {
                 unclear.push((c, i));
