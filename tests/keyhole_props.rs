@@ -1,7 +1,8 @@
 //! Property tests of keyholes (`geometry::keyhole`): on random contours with random holes and
 //! a small contour in the middle of the other slice, slits are found, each is admissible, and the loop is the
 //! material it joins (weakly simple, its area the contour's less the holes', every point of
-//! contour and holes on it).
+//! contour and holes on it); and with a thin wall beside the hole that lies over the other
+//! slice's thin wall, the slit still closes the other slice's bay mouth.
 
 use bskin::geometry::keyhole::{keyhole_loop, slits, with_feet, Slit};
 use bskin::geometry::polygon::{contains, is_weakly_simple, signed_area, Point};
@@ -96,5 +97,50 @@ proptest! {
         for r in &rings_in {
             prop_assert!(r.iter().all(|p| l.contains(p)));
         }
+    }
+
+    #[test]
+    fn a_slit_closes_the_mouth_not_a_thin_wall_over_the_other_slices_wall(
+        thin in 0.8f64..1.5,
+        top_ratio in 1.2f64..3.5,
+        right in 22.0f64..36.0,
+        mouth_at in 0.0f64..1.0,
+        mouth_w in 4.0f64..8.0,
+        bay_wall in 0.3f64..0.45,
+    ) {
+        // A 40 × 20 block with a hole from x = `thin` (the thin left wall) to `right`, from
+        // y = 8 up to a top wall `top_ratio` times as thick. On the other slice the hole is
+        // a bay, its left wall `bay_wall` × `thin` thick (the thin slit's midpoint over the
+        // bay, its quarter point over that wall), its mouth `mouth_w` wide through the top.
+        let y = 20.0 - top_ratio * thin;
+        let m0 = thin + 2.0 + mouth_at * (right - thin - 4.0 - mouth_w);
+        let m1 = m0 + mouth_w;
+        let block = vec![[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]];
+        let hole = vec![[thin, 8.0], [thin, y], [right, y], [right, 8.0]];
+        let w = bay_wall * thin;
+        let bay = vec![
+            [0.0, 0.0],
+            [40.0, 0.0],
+            [40.0, 20.0],
+            [m1, 20.0],
+            [m1, y],
+            [right, y],
+            [right, 8.0],
+            [w, 8.0],
+            [w, y],
+            [m0, y],
+            [m0, 20.0],
+            [0.0, 20.0],
+        ];
+        let cuts = slits(&block, &[&hole], &[], &[&bay], 0.25);
+        prop_assert!(cuts.is_some(), "no slit");
+        let cuts = cuts.unwrap_or_default();
+        let rings: [&[Point]; 2] = [&block, &hole];
+        let a = point_at(&rings, cuts[0].from.ring, cuts[0].from.edge, cuts[0].from.t);
+        let b = point_at(&rings, cuts[0].to.ring, cuts[0].to.edge, cuts[0].to.t);
+        prop_assert!(
+            (a[1] - 20.0).abs() < 1e-9 && (b[1] - y).abs() < 1e-9 && a[0] > m0 && a[0] < m1,
+            "slit {:?}-{:?}, mouth {}..{}", a, b, m0, m1
+        );
     }
 }
