@@ -25,9 +25,10 @@
 //! outside the other slice's contour. Among such slits of about the shortest length (within
 //! a factor of [`ROUND_FACTORS`], up to [`CLEAR_SEARCH`] times the shortest), the shortest
 //! whose middle half (its quarter, half and three-quarter points) lies outside the other
-//! slice's contours wins; if none does, the shortest round's slit lying least inside them. The wall that closes the mouth lies over the other slice's
-//! void, while a thin wall elsewhere between the hole and the outside lies over the other
-//! slice's thin wall, its midpoint at best just outside it. (On the skull the shortest slit
+//! slice's contours wins; if none does, the shortest round's slit lying least inside them.
+//! The wall that closes the mouth lies over the other slice's void, while a thin wall
+//! elsewhere between the hole and the outside lies over the other slice's thin wall, its
+//! midpoint at best just outside it. (On the skull the shortest slit
 //! of one keyhole, 1.2 mm, crossed such a wall with its midpoint 0.3 mm from the next
 //! slice's bone, 35 mm from the bay's mouth, where a 1.6 mm slit lay 1.6 mm clear; the bay's
 //! wall then swept across to the hole's, 1,164 faces crossing others. Ranking by the
@@ -130,7 +131,7 @@ pub fn slits(
                 })
                 .fold(f64::INFINITY, f64::min)
         };
-        let slit = clearest_short(&rings, h, step, admissible, clearance)?;
+        let slit = shortest_clear(&rings, h, step, admissible, clearance)?;
         made.push((at(&rings, slit.from), at(&rings, slit.to)));
         out.push(slit);
     }
@@ -198,7 +199,7 @@ const CLEAR_SEARCH: f64 = 4.0;
 /// a `clearance` above [`CLEAR`] of the first round holding one (searched up to
 /// [`CLEAR_SEARCH`] times the shortest once any slit is admissible), or failing that the
 /// greatest `clearance` of the first round holding an admissible slit.
-fn clearest_short(
+fn shortest_clear(
     rings: &[&[Point]],
     h: usize,
     step: f64,
