@@ -28,16 +28,16 @@
 //! slice's contours wins; if none does, the shortest round's slit lying least inside them.
 //! The wall that closes the mouth lies over the other slice's void, while a thin wall
 //! elsewhere between the hole and the outside lies over the other slice's thin wall, its
-//! midpoint at best just outside it. (On the skull the shortest slit
-//! of one keyhole, 1.2 mm, crossed such a wall with its midpoint 0.3 mm from the next
-//! slice's bone, 35 mm from the bay's mouth, where a 1.6 mm slit lay 1.6 mm clear; the bay's
-//! wall then swept across to the hole's, 1,164 faces crossing others. Ranking by the
-//! midpoint alone moved another keyhole's slit onto a long crossing whose ends lay over the
-//! next slice's bone, 2,319 faces; preferring the clearest over the shortest clear slit cost
-//! the tilted GE head 2,750 crossing faces.)
+//! midpoint at best just outside it. (On the skull the shortest slit of one keyhole, 1.2 mm,
+//! crossed such a wall with its midpoint 0.3 mm from the next slice's bone, 35 mm from the
+//! bay's mouth, where a 1.6 mm slit lay 1.6 mm clear; the bay's wall then swept across to
+//! the hole's, 1,164 faces crossing others. Ranking by the midpoint alone moved another
+//! keyhole's slit onto a long crossing whose ends lay over the next slice's bone, 2,319
+//! faces; preferring the clearest over the shortest clear slit cost the tilted GE head 2,750
+//! crossing faces.)
 
 use super::polygon::{
-    boundary_distance, boxes_disjoint, contains, perimeter, segments_intersect, Point,
+    boxes_disjoint, contains, perimeter, segments_intersect, signed_boundary_distance, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -119,14 +119,7 @@ pub fn slits(
                     let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
                     outside_of
                         .iter()
-                        .map(|o| {
-                            let d = boundary_distance(o, p);
-                            if contains(o, p) {
-                                -d
-                            } else {
-                                d
-                            }
-                        })
+                        .map(|o| signed_boundary_distance(o, p))
                         .fold(f64::INFINITY, f64::min)
                 })
                 .fold(f64::INFINITY, f64::min)

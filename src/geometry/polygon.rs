@@ -90,6 +90,16 @@ pub fn boundary_distance(pts: &[Point], p: Point) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// [`boundary_distance`], negative when `p` lies inside the polygon.
+pub fn signed_boundary_distance(pts: &[Point], p: Point) -> f64 {
+    let d = boundary_distance(pts, p);
+    if contains(pts, p) {
+        -d
+    } else {
+        d
+    }
+}
+
 /// Whether the closed polygon is simple: no two non-adjacent edges touch or cross, and no
 /// edge has zero length.
 pub fn is_simple(pts: &[Point]) -> bool {

@@ -1,8 +1,9 @@
 //! Stage 5: contour alignment (METHOD.md §4, and beyond the paper: see
 //! [`crate::geometry::alignment`]). Each region's loops are rotated to start where they
-//! correspond; orientation is unchanged. Beyond the paper, an intermediate contour at either
-//! end of a region first grows a spur into each thin arm that the next curve has and it lacks
-//! ([`crate::geometry::spur`]), so that the arm's walls have somewhere to rise from.
+//! correspond; orientation is unchanged. Beyond the paper, the loop at either end of a
+//! region (an intermediate contour, keyhole or contour; not a cap) first grows a spur into
+//! each thin arm that the next curve has and it lacks ([`crate::geometry::spur`]), so that
+//! the arm's walls have somewhere to rise from.
 
 use std::time::Instant;
 
@@ -29,12 +30,12 @@ pub fn align(region: &mut Region, tolerance: f64) {
 }
 
 /// An arm's points are farther than this many times the distance between the planes (or
-/// [`ARM_TOLERANCES`] tolerances, if more) outside the intermediate contour: walls that
-/// slope less than 1 in 4 between an intermediate contour and its neighbour.
+/// [`ARM_TOLERANCES`] tolerances, if more) outside the end curve: walls that slope less
+/// than 1 in 4 between the end curve and its neighbour.
 const ARM_REACH_PLANES: f64 = 4.0;
 const ARM_TOLERANCES: f64 = 2.0;
 
-/// Spurs into the arms beside `region`'s intermediate end curves (see the module doc);
+/// Spurs into the arms beside `region`'s end loops (caps excepted; see the module doc);
 /// returns how many.
 pub fn add_arm_spurs(region: &mut Region, tolerance: f64) -> usize {
     let n = region.curves.len();
