@@ -65,8 +65,10 @@ pub fn run_contours(
                 s2_contours::run(images_rx, &config.contour, batch, &front, sections_tx, ctl),
             )
         });
+        // The loop owns the receiver, so it is dropped as soon as the loop ends, early or
+        // not: a stage still waiting to send then gets an error instead of waiting forever.
         let write = (|| {
-            for compiled in sections_rx.iter() {
+            for compiled in sections_rx {
                 ctl.check()?;
                 let s = &compiled.section;
                 summary.sections += 1;
@@ -82,7 +84,6 @@ pub fn run_contours(
             Ok(())
         })();
         let write = cancel_on_error(ctl, write);
-        // Dropping the receiver (end of the closure above) unblocks any stage still sending.
         (join(load), join(contours), write)
     });
     let mut failure = None;
@@ -203,7 +204,10 @@ pub fn run_surfaces(
                                 ),
                             )
                         });
-                        let sections = sections_rx.iter().map(|c| {
+                        // Correspondence owns the receiver and drops it when it returns,
+                        // early or not, so that contour extraction, if waiting to send, gets
+                        // an error and stops instead of waiting forever.
+                        let sections = sections_rx.into_iter().map(|c| {
                             counts.count(&c);
                             on_section(&c.section);
                             Ok(c.section)
