@@ -9,7 +9,7 @@ mod helpers;
 use bskin::bspline::{
     fit_common, skin, skin_ends, ClosedCurve, FitOptions, SkinEnd, SkinnedSurface,
 };
-use helpers::{dist, lift, star};
+use helpers::{dist, ellipse, lift, star};
 use proptest::prelude::*;
 
 fn region(sizes: &[usize], seed: u64, caps: (bool, bool)) -> (Vec<ClosedCurve<3>>, f64) {
@@ -148,6 +148,100 @@ proptest! {
         let p2: [f64; 3] = std::array::from_fn(|x| q[x] + off * n[x] / nl);
         let (d2, _, _) = s.closest_point(&p2);
         prop_assert!((d2 - off).abs() < 1e-8, "{d2} vs {off}");
+    }
+}
+
+/// The largest amount by which the surface's height goes back along v (0 if it never does),
+/// sampled on a 24 × 600 grid, and how far it strays below the first curve's plane or above
+/// the last's.
+fn height_reversal(s: &SkinnedSurface, lo: f64, hi: f64) -> (f64, f64) {
+    let (n1, r) = (s.n_u() as f64, (s.v_bar().len() - 1) as f64);
+    let (mut back, mut out) = (0.0f64, 0.0f64);
+    for a in 0..24 {
+        let u = n1 * a as f64 / 24.0;
+        let mut prev = f64::NEG_INFINITY;
+        for b in 0..=600 {
+            let z = s.eval(u, r * b as f64 / 600.0)[2];
+            back = back.max(prev - z);
+            out = out.max(lo - z).max(z - hi);
+            prev = z;
+        }
+    }
+    (back, out)
+}
+
+/// Curves in planes `heights`, each an ellipse `(a, b)` centred at `(cx, cy)`.
+fn stack(heights: &[f64], shapes: &[(f64, f64, f64, f64)]) -> Vec<ClosedCurve<3>> {
+    let contours: Vec<Vec<[f64; 3]>> = heights
+        .iter()
+        .zip(shapes)
+        .map(|(&z, &(a, b, cx, cy))| {
+            let e = ellipse(120, a, b);
+            lift(
+                &e.iter().map(|p| [p[0] + cx, p[1] + cy]).collect::<Vec<_>>(),
+                z,
+            )
+        })
+        .collect();
+    fit_common(&contours, &FitOptions::new(0.05))
+        .unwrap()
+        .curves
+}
+
+/// An intermediate contour 0.08 mm below the next contour (a plane moved to t = 0.92) and
+/// 2 mm inside it (its zone cut it): with centripetal v̄ its step is as long as a slice's, and
+/// the height spline dipped 0.20 mm below the intermediate plane, folding the surface through
+/// the one below. The height must rise all the way.
+#[test]
+fn heights_stay_monotone_next_to_a_near_plane() {
+    let heights = [0.0, 0.08, 1.08, 2.08, 3.08];
+    let mut shapes = vec![(10.0, 8.0, 0.0, 0.0); 5];
+    shapes[0] = (8.0, 6.0, 0.0, 0.0);
+    let s = skin(&stack(&heights, &shapes)).unwrap();
+    let (back, out) = height_reversal(&s, 0.0, 3.08);
+    assert!(
+        back < 1e-9 && out < 1e-9,
+        "height goes back {back} mm, strays {out} mm"
+    );
+    // The same at the top end, and with the near curve outside its neighbour.
+    let heights = [0.0, 1.0, 2.0, 2.92, 3.0];
+    shapes[0] = (10.0, 8.0, 0.0, 0.0);
+    shapes[4] = (12.0, 10.0, 1.0, 0.0);
+    let s = skin(&stack(&heights, &shapes)).unwrap();
+    let (back, out) = height_reversal(&s, 0.0, 3.0);
+    assert!(
+        back < 1e-9 && out < 1e-9,
+        "height goes back {back} mm, strays {out} mm"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Random gaps between the planes (0.05–1.5 mm) and random outlines: the surface still
+    /// interpolates every curve, and its height never goes back.
+    #[test]
+    fn heights_are_monotone_over_uneven_planes(
+        gaps in prop::collection::vec(0.05f64..1.5, 2..7),
+        shapes in prop::collection::vec((5.0f64..12.0, 4.0f64..12.0, -2.0f64..2.0, -2.0f64..2.0), 8),
+    ) {
+        let mut heights = vec![0.0];
+        for g in &gaps {
+            heights.push(heights[heights.len() - 1] + g);
+        }
+        let curves = stack(&heights, &shapes[..heights.len()]);
+        let s = skin(&curves).unwrap();
+        let top = heights[heights.len() - 1];
+        let (back, out) = height_reversal(&s, 0.0, top);
+        prop_assert!(back < 1e-9 && out < 1e-9, "height goes back {} mm, strays {} mm", back, out);
+        let vb = s.v_bar();
+        for (k, c) in curves.iter().enumerate() {
+            for q in 0..20 {
+                let u = s.n_u() as f64 * q as f64 / 20.0;
+                let e = dist(&s.eval(u, vb[k]), &c.eval(u));
+                prop_assert!(e < 1e-9, "curve {} at u = {}: {}", k, u, e);
+            }
+        }
     }
 }
 

@@ -8,6 +8,17 @@
 //!   share the control point carry no information and are skipped):
 //!   v̄_k = v̄_{k−1} + (r / #columns) Σ_i √|B_{i,k} − B_{i,k−1}| / Σ_j √|B_{i,j} − B_{i,j−1}|.
 //!   Two consecutive identical curves give v̄_k = v̄_{k−1}: an error.
+//! - Heights kept monotone (beyond the paper). When the curves lie in parallel planes (slices,
+//!   intermediate planes, caps), the surface's height along their normal is one cubic spline in
+//!   v through the planes' heights. Centripetal steps follow how far the control points move,
+//!   not how far apart the planes are: an intermediate contour 0.08 mm below a contour (a
+//!   plane moved to t = 0.92) whose zone cuts 2 mm off it gets a step as long as a whole
+//!   slice's, and the height spline dips below the intermediate plane, folding the surface
+//!   through its neighbour's. So if the heights of the control net go back anywhere, v̄ is
+//!   moved towards the planes' own spacing, v̄^P_k = r (h_k − h_0)/(h_r − h_0), in tenths,
+//!   v̄ = (1 − α) v̄^C + α v̄^P, and the first α whose control heights never go back is kept
+//!   (the spline is then monotone: variation diminishing). At α = 1 the height is linear in v
+//!   wherever the end tangents are the parabola or the chord (interpolation reproduces it).
 //! - V = {0,0,0,0, v_1..v_{r−1}, r,r,r,r}, v_{j+1} = (v̄_j + v̄_{j+1} + v̄_{j+2}) / 3.
 //! - Column i: V_{i,0} = B_{i,0}, V_{i,1} − V_{i,0} = (v_1/3) T_{i,0}, interior rows
 //!   Σ_j V_{i,j} M_j(v̄_k) = B_{i,k} (k = 1..r−1), V_{i,r+1} − V_{i,r+2} = −((r − v_{r−1})/3)
@@ -137,6 +148,110 @@ pub fn skin_ends(
         v_bar[k] = v_bar[k - 1] + d;
     }
     v_bar[r] = r as f64;
+    let surface = interpolate(curves, ends, &uk, v_bar.clone())?;
+    let Some((normal, planes)) = plane_spacing(curves) else {
+        return Ok(surface);
+    };
+    if heights_monotone(&surface, &normal) {
+        return Ok(surface);
+    }
+    for alpha in TOWARDS_PLANES {
+        let mut blend: Vec<f64> = v_bar
+            .iter()
+            .zip(&planes)
+            .map(|(c, p)| (1.0 - alpha) * c + alpha * p)
+            .collect();
+        blend[r] = r as f64;
+        let s = interpolate(curves, ends, &uk, blend)?;
+        if alpha == 1.0 || heights_monotone(&s, &normal) {
+            return Ok(s);
+        }
+    }
+    Ok(surface)
+}
+
+/// The blends of v̄ tried, from centripetal towards the planes' spacing (module doc).
+const TOWARDS_PLANES: [f64; 10] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0];
+
+/// The unit normal of parallel planes holding every curve's control points (to 1e-9 of the
+/// heights' scale), and v̄ in proportion to the planes' heights along it; `None` if the curves
+/// are not planar in parallel planes, or two share a plane.
+fn plane_spacing(curves: &[ClosedCurve<3>]) -> Option<(P3, Vec<f64>)> {
+    let normal = curves.iter().find_map(|c| newell_normal(c.control()))?;
+    let mut heights = Vec::with_capacity(curves.len());
+    for c in curves {
+        let (lo, hi) =
+            c.control()
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                    let h = dot(p, &normal);
+                    (lo.min(h), hi.max(h))
+                });
+        if !(hi - lo <= 1e-9 * (1.0 + hi.abs().max(lo.abs()))) {
+            return None;
+        }
+        heights.push(0.5 * (lo + hi));
+    }
+    let r = curves.len() - 1;
+    let total = heights[r] - heights[0];
+    let mut v_bar = vec![0.0; r + 1];
+    for k in 1..=r {
+        let step = (heights[k] - heights[k - 1]) / total;
+        // Not one way (or a shared plane): no spacing to follow.
+        if !(step > 1e-9) {
+            return None;
+        }
+        v_bar[k] = v_bar[k - 1] + step * r as f64;
+    }
+    v_bar[r] = r as f64;
+    Some((normal, v_bar))
+}
+
+/// Whether the control net's heights along `normal` never go back in v (every column has the
+/// same heights: each curve lies in one plane).
+fn heights_monotone(surface: &SkinnedSurface, normal: &P3) -> bool {
+    let h: Vec<f64> = (0..surface.n_v())
+        .map(|j| dot(&surface.control_point(0, j), normal))
+        .collect();
+    let (first, last) = (h[0], h[h.len() - 1]);
+    let sign = if last >= first { 1.0 } else { -1.0 };
+    let slack = 1e-9 * (1.0 + (last - first).abs());
+    h.windows(2).all(|w| sign * (w[1] - w[0]) >= -slack)
+}
+
+/// Newell's normal of a closed polygon, unit; `None` if it vanishes (a point, a segment).
+fn newell_normal(points: &[P3]) -> Option<P3> {
+    let n = points.len();
+    let c = scale(
+        &points.iter().fold([0.0; 3], |acc, p| add(&acc, p)),
+        1.0 / n as f64,
+    );
+    let mut normal = [0.0; 3];
+    for i in 0..n {
+        let (a, b) = (sub(&points[i], &c), sub(&points[(i + 1) % n], &c));
+        normal = add(
+            &normal,
+            &[
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ],
+        );
+    }
+    let len = norm(&normal);
+    (len > 0.0).then(|| scale(&normal, 1.0 / len))
+}
+
+/// The surface through the curves at the given v̄ (knots, end tangents, the shared system).
+fn interpolate(
+    curves: &[ClosedCurve<3>],
+    ends: [SkinEnd; 2],
+    uk: &super::PeriodicKnotVector,
+    v_bar: Vec<f64>,
+) -> Result<SkinnedSurface, BsplineError> {
+    let r = curves.len() - 1;
+    let n1 = uk.n_control();
+    let b = |i: usize, k: usize| curves[k].control()[i];
     let rf = r as f64;
     let interior: Vec<f64> = (0..r.saturating_sub(1))
         .map(|j| (v_bar[j] + v_bar[j + 1] + v_bar[j + 2]) / 3.0)
@@ -240,7 +355,7 @@ pub fn skin_ends(
             control.push([sol[(j, 3 * i)], sol[(j, 3 * i + 1)], sol[(j, 3 * i + 2)]]);
         }
     }
-    SkinnedSurface::try_new(uk, vk, control, v_bar)
+    SkinnedSurface::try_new(uk.clone(), vk, control, v_bar)
 }
 
 /// Projects cap tangents into the plane orthogonal to the neighbouring curve's normal (see
@@ -248,28 +363,9 @@ pub fn skin_ends(
 /// loop); `h` is the v̄ step to the neighbour; `sign` is +1 at the start (tangents point
 /// from the cap outwards), −1 at the end.
 fn cap_tangents(t: &mut [P3], cap: &[P3], neighbour: &[P3], h: f64, sign: f64) {
-    let n = neighbour.len();
-    let c = scale(
-        &neighbour.iter().fold([0.0; 3], |acc, p| add(&acc, p)),
-        1.0 / n as f64,
-    );
-    let mut normal = [0.0; 3];
-    for i in 0..n {
-        let (a, b) = (sub(&neighbour[i], &c), sub(&neighbour[(i + 1) % n], &c));
-        normal = add(
-            &normal,
-            &[
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ],
-        );
-    }
-    let len = norm(&normal);
-    if !(len > 0.0) {
+    let Some(nn) = newell_normal(neighbour) else {
         return;
-    }
-    let nn = scale(&normal, 1.0 / len);
+    };
     let proj = |v: &P3| sub(v, &scale(&nn, dot(v, &nn)));
     for (i, ti) in t.iter_mut().enumerate() {
         let p = proj(ti);
