@@ -133,14 +133,25 @@ fn two_objects_that_touch_on_one_slice_only() {
     assert_met(&s);
 }
 
+/// The error of `run`, which must fail, run on a thread so that a hang fails the test (after
+/// 120 s) instead of stalling it.
+fn error_in_time(what: &str, run: impl FnOnce() -> bskin::Result<()> + Send + 'static) -> String {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(run().map_err(|e| e.to_string()));
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(120))
+        .unwrap_or_else(|_| panic!("{what}: the run did not end within 120 s"))
+        .expect_err(what)
+}
+
 #[test]
 fn a_stage_that_fails_mid_run_ends_the_run_with_its_error() {
     // One disc, then two, then one...: every transition is a branching problem, so the
     // later stages are slower than loading and segmentation, which run ahead until the
     // channels are full and they wait to send. Slice 40 of 60 lies below slice 39, so
     // correspondence fails there. Every stage must then stop: one left waiting to send into a
-    // channel that nobody reads would hang the run. The run goes on a thread so that a hang
-    // fails the test.
+    // channel that nobody reads would hang the run.
     let mut images = synthetic(60, 48, |k, x, y| {
         if k % 2 == 0 {
             disc(x, y, 24.0, 24.0, 12.0)
@@ -149,16 +160,10 @@ fn a_stage_that_fails_mid_run_ends_the_run_with_its_error() {
         }
     });
     images.0[40].frame.origin[2] = 38.5;
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
+    let e = error_in_time("a slice out of order", move || {
         let tmp = tempfile::tempdir().unwrap();
-        let r = run_images(&images, tmp.path(), &RunConfig::with_tolerance(0.5));
-        let _ = tx.send(r.map(|_| ()).map_err(|e| e.to_string()));
+        run_images(&images, tmp.path(), &RunConfig::with_tolerance(0.5)).map(|_| ())
     });
-    let r = rx
-        .recv_timeout(std::time::Duration::from_secs(120))
-        .expect("the run did not end within 120 s after a stage failed");
-    let e = r.expect_err("a slice out of order must fail the run");
     assert!(e.contains("ascending") && e.contains("synthetic/40"), "{e}");
 }
 
@@ -166,27 +171,21 @@ fn a_stage_that_fails_mid_run_ends_the_run_with_its_error() {
 fn a_writer_that_fails_at_once_ends_the_run_with_its_error() {
     // The output "directory" is a file, so the writers fail before reading a surface. Every
     // stage upstream must then stop (its channel is closed), down to the loader, which has
-    // far more slices than the channels hold: a stage left blocked on a full channel would
-    // hang the run. The run goes on a thread so that a hang fails the test.
+    // far more slices than the channels hold.
     let images = synthetic(60, 40, |_, x, y| disc(x, y, 20.0, 20.0, 8.0));
     let tmp = tempfile::tempdir().unwrap();
     let not_a_dir = tmp.path().join("file");
     std::fs::write(&not_a_dir, b"x").unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let r = bskin::pipeline::run_surfaces(
+    let e = error_in_time("writing under a file", move || {
+        bskin::pipeline::run_surfaces(
             bskin::pipeline::RunInput::Images(&images),
             &RunConfig::with_tolerance(0.5),
             &not_a_dir,
             &bskin::stages::Control::new(),
             &|_| {},
-        );
-        let _ = tx.send(r.map(|_| ()).map_err(|e| e.to_string()));
+        )
+        .map(|_| ())
     });
-    let r = rx
-        .recv_timeout(std::time::Duration::from_secs(120))
-        .expect("the run did not end within 120 s after its writer failed");
-    let e = r.expect_err("writing under a file must fail");
     assert!(e.contains("file"), "{e}");
 }
 
@@ -195,23 +194,18 @@ fn a_contour_sink_that_fails_ends_the_run_with_its_error() {
     // `bskin contours` into a closed pipe: the sink fails on the first section, by which time
     // extraction has filled the channel and waits to send. It must stop, not hang.
     let images = synthetic(60, 48, |_, x, y| disc(x, y, 24.0, 24.0, 12.0));
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
+    let e = error_in_time("a failing sink", move || {
         let mut sink = |_: &bskin::stages::s2_contours::CompiledSection| -> bskin::Result<()> {
             std::thread::sleep(std::time::Duration::from_millis(200));
             Err(bskin::Error::Internal("the sink is closed".into()))
         };
-        let r = bskin::pipeline::run_contours(
+        bskin::pipeline::run_contours(
             &images,
             &bskin::config::ContoursConfig::default(),
             &bskin::stages::Control::new(),
             &mut sink,
-        );
-        let _ = tx.send(r.map(|_| ()).map_err(|e| e.to_string()));
+        )
+        .map(|_| ())
     });
-    let r = rx
-        .recv_timeout(std::time::Duration::from_secs(120))
-        .expect("the run did not end within 120 s after its sink failed");
-    let e = r.expect_err("a failing sink must fail the run");
     assert!(e.contains("the sink is closed"), "{e}");
 }
