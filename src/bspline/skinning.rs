@@ -148,26 +148,42 @@ pub fn skin_ends(
         v_bar[k] = v_bar[k - 1] + d;
     }
     v_bar[r] = r as f64;
-    let surface = interpolate(curves, ends, &uk, v_bar.clone())?;
+    let v_bar = monotone_v_bar(curves, ends, v_bar)?;
+    let (vk, control) = control_net(curves, ends, &v_bar, n1)?;
+    SkinnedSurface::try_new(uk, vk, control, v_bar)
+}
+
+/// `centripetal`, or, where the heights of its control net go back, the first blend towards
+/// the planes' spacing whose heights do not (module doc). Only the first column of each
+/// trial net is solved for: every column has the same heights.
+fn monotone_v_bar(
+    curves: &[ClosedCurve<3>],
+    ends: [SkinEnd; 2],
+    centripetal: Vec<f64>,
+) -> Result<Vec<f64>, BsplineError> {
     let Some((normal, planes)) = plane_spacing(curves) else {
-        return Ok(surface);
+        return Ok(centripetal);
     };
-    if heights_monotone(&surface, &normal) {
-        return Ok(surface);
+    let rises = |v_bar: &[f64]| -> Result<bool, BsplineError> {
+        let (_, column) = control_net(curves, ends, v_bar, 1)?;
+        Ok(heights_monotone(&column, &normal))
+    };
+    if rises(&centripetal)? {
+        return Ok(centripetal);
     }
+    let r = centripetal.len() - 1;
     for alpha in TOWARDS_PLANES {
-        let mut blend: Vec<f64> = v_bar
+        let mut blend: Vec<f64> = centripetal
             .iter()
             .zip(&planes)
             .map(|(c, p)| (1.0 - alpha) * c + alpha * p)
             .collect();
         blend[r] = r as f64;
-        let s = interpolate(curves, ends, &uk, blend)?;
-        if alpha == 1.0 || heights_monotone(&s, &normal) {
-            return Ok(s);
+        if alpha == 1.0 || rises(&blend)? {
+            return Ok(blend);
         }
     }
-    Ok(surface)
+    Ok(planes)
 }
 
 /// The blends of v̄ tried, from centripetal towards the planes' spacing (module doc).
@@ -207,12 +223,10 @@ fn plane_spacing(curves: &[ClosedCurve<3>]) -> Option<(P3, Vec<f64>)> {
     Some((normal, v_bar))
 }
 
-/// Whether the control net's heights along `normal` never go back in v (every column has the
-/// same heights: each curve lies in one plane).
-fn heights_monotone(surface: &SkinnedSurface, normal: &P3) -> bool {
-    let h: Vec<f64> = (0..surface.n_v())
-        .map(|j| dot(&surface.control_point(0, j), normal))
-        .collect();
+/// Whether the heights along `normal` of a column of the control net never go back in v
+/// (every column has the same heights: each curve lies in one plane).
+fn heights_monotone(column: &[P3], normal: &P3) -> bool {
+    let h: Vec<f64> = column.iter().map(|p| dot(p, normal)).collect();
     let (first, last) = (h[0], h[h.len() - 1]);
     let sign = if last >= first { 1.0 } else { -1.0 };
     let slack = 1e-9 * (1.0 + (last - first).abs());
@@ -242,15 +256,15 @@ fn newell_normal(points: &[P3]) -> Option<P3> {
     (len > 0.0).then(|| scale(&normal, 1.0 / len))
 }
 
-/// The surface through the curves at the given v̄ (knots, end tangents, the shared system).
-fn interpolate(
+/// The v knots and the control net through the curves at the given v̄ (end tangents, the
+/// shared system), for the first `n1` columns, column by column.
+fn control_net(
     curves: &[ClosedCurve<3>],
     ends: [SkinEnd; 2],
-    uk: &super::PeriodicKnotVector,
-    v_bar: Vec<f64>,
-) -> Result<SkinnedSurface, BsplineError> {
+    v_bar: &[f64],
+    n1: usize,
+) -> Result<(ClampedKnotVector, Vec<P3>), BsplineError> {
     let r = curves.len() - 1;
-    let n1 = uk.n_control();
     let b = |i: usize, k: usize| curves[k].control()[i];
     let rf = r as f64;
     let interior: Vec<f64> = (0..r.saturating_sub(1))
@@ -355,7 +369,7 @@ fn interpolate(
             control.push([sol[(j, 3 * i)], sol[(j, 3 * i + 1)], sol[(j, 3 * i + 2)]]);
         }
     }
-    SkinnedSurface::try_new(uk.clone(), vk, control, v_bar)
+    Ok((vk, control))
 }
 
 /// Projects cap tangents into the plane orthogonal to the neighbouring curve's normal (see
