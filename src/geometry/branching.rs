@@ -568,11 +568,11 @@ fn build_at(
             let n = |k: usize| neg_psi(near, i as u32, k) as f32 as f64;
             let mut pieces = vec![insert_junctions(&loops[b], grid, &g, &n)];
             let mut tiny = 0.0;
-            for (k, lp) in loops.iter().enumerate() {
+            for (_, lp) in loops.iter().enumerate().filter(|&(k, _)| k != b) {
                 let a = signed_area(lp);
-                if k != b && a > MIN_PIECE_CELLS * cell * cell {
+                if a > MIN_PIECE_CELLS * cell * cell {
                     pieces.push(insert_junctions(lp, grid, &g, &n));
-                } else if k != b && a > 0.0 {
+                } else if a > 0.0 {
                     tiny += a;
                 }
             }
