@@ -378,6 +378,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         },
         peak_rss_mb: bskin::io::report::peak_rss_mb(),
         warnings: ctl.warnings(),
+        notes: ctl.notes(),
     };
     let report_path = s8_write::write_report(out, &report)?;
     if !quiet {

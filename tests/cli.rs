@@ -279,6 +279,15 @@ fn quiet_prints_nothing_and_the_summary_fits_one_screen() {
         assert!(e.contains(&want), "summary lacks {want:?}:\n{e}");
     }
     assert!(!e.contains("surfaces.step"), "{e}");
+    // The sample's split zone is bridged whole at t = ½: a note in the report, not a warning
+    // on the screen.
+    assert_eq!(report["warnings"], serde_json::json!([]), "{e}");
+    let notes = report["notes"].as_array().unwrap();
+    assert!(
+        notes.len() == 1 && notes[0].as_str().unwrap().contains("dropped 0.0000"),
+        "{notes:?}"
+    );
+    assert!(!e.contains("warning") && e.contains("1 note(s)"), "{e}");
 }
 
 #[test]
@@ -299,7 +308,8 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["coordinates"], "RAS");
-    assert_eq!(report["version"], 3);
+    assert_eq!(report["version"], 4);
+    assert!(report["notes"].is_array());
     let files: Vec<&str> = report["files"]
         .as_array()
         .unwrap()

@@ -138,6 +138,9 @@ pub struct IntermediateContours {
     pub lower_holes: Vec<Vec<Vec<Point>>>,
     pub upper_holes: Vec<Vec<Vec<Point>>>,
     pub warnings: Vec<String>,
+    /// What the construction did that a user may want to know but need not act on: a split
+    /// zone whose pieces bridges joined whole, dropping nothing.
+    pub notes: Vec<String>,
 }
 
 /// A raster covering the polygons, coarsened (with a warning) if the requested cell would
@@ -558,9 +561,9 @@ fn build_at(
         .par_iter()
         .zip(&chosen.zones)
         .map(|(&(is_lower, i), (loops, best, _, _))| {
-            let mut notes = Vec::new();
+            let mut filled = Vec::new();
             let Some(b) = *best else {
-                return (None, notes, 0.0);
+                return (None, filled, 0.0);
             };
             let near = if is_lower { &near_lower } else { &near_upper };
             let name = if is_lower { "lower" } else { "upper" };
@@ -585,7 +588,7 @@ fn build_at(
                 })
                 .count();
             if small > 0 {
-                notes.push(format!(
+                filled.push(format!(
                     "{name} contour {i}: its intermediate region has {small} hole(s) too small \
                      to keep; filled"
                 ));
@@ -595,7 +598,7 @@ fn build_at(
                 .filter(|lp| signed_area(lp) < -MIN_PIECE_CELLS * cell * cell && inside(lp))
                 .map(|lp| insert_junctions(lp, grid, &g, &n))
                 .collect();
-            (Some((pieces, holes)), notes, tiny)
+            (Some((pieces, holes)), filled, tiny)
         })
         .collect();
 
@@ -612,6 +615,7 @@ fn build_at(
     let mut compressed = Vec::new();
     let mut compressed_holes = Vec::new();
     let mut dropped = 0.0;
+    let mut notes = Vec::new();
     for ((&(is_lower, i), (lp, _, tiny)), (_, _, count, total)) in
         jobs.iter().zip(&extracted).zip(&chosen.zones)
     {
@@ -627,12 +631,20 @@ fn build_at(
         };
         let joined = join_pieces(own, contour, &all_loops);
         if *count > 1 {
-            dropped += joined.dropped_area + tiny;
-            warnings.push(format!(
+            let lost = joined.dropped_area + tiny;
+            dropped += lost;
+            let message = format!(
                 "{name} contour {i}: its zone meets the intermediate section (t = {t}) in \
                  {count} pieces; joined {} by bridges, dropped {:.4} of {:.4} mm²",
-                joined.pieces, joined.dropped_area, total
-            ));
+                joined.pieces, lost, total
+            );
+            // Nothing lost: the surface follows the whole zone, so it is not a warning.
+            if lost == 0.0 {
+                &mut notes
+            } else {
+                &mut warnings
+            }
+            .push(message);
         }
         compressed.push(joined.points);
     }
@@ -646,9 +658,10 @@ fn build_at(
         lower_holes: Vec::new(),
         upper_holes: Vec::new(),
         warnings: Vec::new(),
+        notes,
     };
-    for (&(is_lower, i), (lp, notes, _)) in jobs.iter().zip(extracted) {
-        warnings.extend(notes);
+    for (&(is_lower, i), (lp, filled, _)) in jobs.iter().zip(extracted) {
+        warnings.extend(filled);
         let (name, contour) = if is_lower {
             ("lower", lower[i])
         } else {

@@ -45,6 +45,8 @@ pub struct Caps {
     pub outer: Intermediate,
     pub holes: Vec<Intermediate>,
     pub warnings: Vec<String>,
+    /// Informational: ridge loops that bridges joined whole, dropping nothing.
+    pub notes: Vec<String>,
 }
 
 /// Innermost point of the material (largest depth), refined on the exact distance.
@@ -122,6 +124,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
             outer,
             holes: Vec::new(),
             warnings,
+            notes: Vec::new(),
         });
     }
 
@@ -167,6 +170,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
     let all_loops: Vec<&[Point]> = compressed.iter().map(|l| l.as_slice()).collect();
     let mut next = 0;
     let mut caps: Vec<Intermediate> = Vec::with_capacity(all.len());
+    let mut notes = Vec::new();
     for (label, c) in chosen.iter().enumerate() {
         let own = &compressed[next..next + c.len()];
         next += c.len();
@@ -175,13 +179,19 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
             // by slits through the zone (as a split zone's pieces are, `super::bridges`),
             // so the outer wall closes onto the ridge round every group.
             let joined = join_pieces(own, outer, &all_loops);
-            warnings.push(format!(
+            let message = format!(
                 "outer contour: its zone has {} ridge loops; joined {} by bridges, dropped \
                  {:.4} mm²",
                 own.len(),
                 joined.pieces,
                 joined.dropped_area
-            ));
+            );
+            if joined.dropped_area == 0.0 {
+                &mut notes
+            } else {
+                &mut warnings
+            }
+            .push(message);
             caps.push(Intermediate::Loop(joined.points));
         } else if let Some(lp) = own.first() {
             caps.push(Intermediate::Loop(lp.clone()));
@@ -206,6 +216,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
         outer: outer_cap,
         holes: caps.collect(),
         warnings,
+        notes,
     })
 }
 

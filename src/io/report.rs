@@ -1,4 +1,4 @@
-//! `report.json`, version 3: what a `bskin run` read, made and measured. Documented field by
+//! `report.json`, version 4: what a `bskin run` read, made and measured. Documented field by
 //! field in the README. Floating-point values are as computed (shortest round-trip form), so
 //! the same input gives the same bytes, except for the timing and memory fields (and so
 //! report.json's own size).
@@ -12,8 +12,9 @@ use crate::stages::StageStats;
 pub const FORMAT: &str = "bskin-report";
 /// 2: `input.slice_spacing_mm` added; `input.threshold` an object (was Rust debug text);
 /// `coordinates` follows `--ras`. 3: `mesh` (chordal tolerance, triangle totals) and per
-/// surface `seal_triangles` added; `files` lists report.json too.
-pub const VERSION: u32 = 3;
+/// surface `seal_triangles` added; `files` lists report.json too. 4: `notes` added (what needs
+/// no action, such as a split zone bridges joined whole, which version 3 listed as warnings).
+pub const VERSION: u32 = 4;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -42,6 +43,8 @@ pub struct Report {
     pub timings: Timings,
     pub peak_rss_mb: Option<f64>,
     pub warnings: Vec<String>,
+    /// Informational: what the run did that needs no action.
+    pub notes: Vec<String>,
 }
 
 #[derive(Serialize, Debug, Clone, Default)]
@@ -200,6 +203,9 @@ impl Report {
                 "bskin: … and {} more warning(s) in report.json",
                 self.warnings.len() - SUMMARY_WARNINGS
             );
+        }
+        if !self.notes.is_empty() {
+            let _ = writeln!(s, "bskin: {} note(s) in report.json", self.notes.len());
         }
         s
     }

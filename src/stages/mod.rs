@@ -30,6 +30,7 @@ use std::time::Duration;
 pub struct Control {
     cancelled: Arc<AtomicBool>,
     warnings: Arc<Mutex<Vec<String>>>,
+    notes: Arc<Mutex<Vec<String>>>,
 }
 
 impl Control {
@@ -51,6 +52,22 @@ impl Control {
         if let Ok(mut w) = self.warnings.lock() {
             w.push(message);
         }
+    }
+
+    /// Record a note for the report: something the run did that needs no action (logged at
+    /// info level, so it stays off a default run's screen).
+    pub fn note(&self, message: String) {
+        tracing::info!("{message}");
+        if let Ok(mut n) = self.notes.lock() {
+            n.push(message);
+        }
+    }
+
+    /// The notes so far, sorted.
+    pub fn notes(&self) -> Vec<String> {
+        let mut n = self.notes.lock().map(|n| n.clone()).unwrap_or_default();
+        n.sort();
+        n
     }
 
     /// The warnings so far, sorted (stages push them from parallel work in any order).

@@ -346,6 +346,9 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             for w in &r.warnings {
                 ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             }
+            for n in &r.notes {
+                ctl.note(format!("slices {}–{}: {n}", lo.index, up.index));
+            }
             let (mut il, mut iu) = (r.lower, r.upper);
             let mut warn = |w: String| ctl.warn(format!("slices {}–{}: {w}", lo.index, up.index));
             // Where M_t has holes: an upper keyhole whose holes they match starts them as
@@ -438,6 +441,9 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: {w}", section.index));
                     }
+                    for n in &caps.notes {
+                        ctl.note(format!("slice {}: {n}", section.index));
+                    }
                     let (mut outer, mut holes) = (caps.outer, caps.holes);
                     conform_loops(std::iter::once(&mut outer).chain(holes.iter_mut()), cell_mm);
                     Ok(Solved::Cap {
@@ -451,6 +457,9 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     let caps = cap(&void[0], &[], cell_mm).map_err(|e| geometry(e, what()))?;
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: hole closing alone: {w}", section.index));
+                    }
+                    for n in &caps.notes {
+                        ctl.note(format!("slice {}: hole closing alone: {n}", section.index));
                     }
                     Ok(Solved::Cap {
                         outer: None,
