@@ -271,12 +271,94 @@ fn simplify_whole(lp: &[Point], tol: f64) -> Vec<Point> {
     out
 }
 
+/// Points closer than this fraction of the compression tolerance are taken as one point, for
+/// every loop at once (see [`snap_close_points`]).
+const SNAP_FRACTION: f64 = 0.04;
+
+/// The loops with each short edge closer than `eps` made one point (its first point met,
+/// loops and points in order), where that edge is an edge of every loop holding either end:
+/// merging it then only drops a repeat from each, and never pinches a loop.
+///
+/// Loops traced zone by zone meet at junctions that each finds on its own: where the boundary
+/// of `M_t` passes a hair from a sample, or a third contour makes two zones' ψ differ, two
+/// zones can end their shared bisecting edge at two junction points a thousandth of a cell
+/// apart, each loop holding both. The two loops then overlap on the edge between them, which
+/// a mesh stitched from the loops uses four times (GE head, slices 7–8). One point mends it.
+pub(crate) fn snap_close_points(loops: &[Vec<Point>], eps: f64) -> Vec<Vec<Point>> {
+    let mut at: HashMap<(u64, u64), Vec<(usize, usize)>> = HashMap::new();
+    for (l, lp) in loops.iter().enumerate() {
+        for (i, &p) in lp.iter().enumerate() {
+            at.entry(key(p)).or_default().push((l, i));
+        }
+    }
+    // Whether every visit of `a` has `b` next to it in its loop (either side).
+    let beside = |a: Point, b: Point| {
+        at.get(&key(a)).is_some_and(|visits| {
+            visits.iter().all(|&(l, i)| {
+                let lp = &loops[l];
+                let n = lp.len();
+                n > 3 && (lp[(i + 1) % n] == b || lp[(i + n - 1) % n] == b)
+            })
+        })
+    };
+    let bin = |p: Point| ((p[0] / eps).floor() as i64, (p[1] / eps).floor() as i64);
+    let mut bins: HashMap<(i64, i64), Vec<Point>> = HashMap::new();
+    let mut to: HashMap<(u64, u64), Point> = HashMap::new();
+    for &p in loops.iter().flatten() {
+        if to.contains_key(&key(p)) {
+            continue;
+        }
+        let (bx, by) = bin(p);
+        let mut best: Option<(f64, Point)> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for &c in bins.get(&(bx + dx, by + dy)).into_iter().flatten() {
+                    let d = (c[0] - p[0]).hypot(c[1] - p[1]);
+                    if d <= eps && best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, c));
+                    }
+                }
+            }
+        }
+        match best {
+            Some((_, c)) if beside(p, c) && beside(c, p) => {
+                to.insert(key(p), c);
+            }
+            _ => {
+                bins.entry((bx, by)).or_default().push(p);
+                to.insert(key(p), p);
+            }
+        }
+    }
+    if to.iter().all(|(k, c)| *k == key(*c)) {
+        return loops.to_vec();
+    }
+    loops
+        .iter()
+        .map(|lp| {
+            let mut out: Vec<Point> = Vec::with_capacity(lp.len());
+            for p in lp {
+                let c = to.get(&key(*p)).copied().unwrap_or(*p);
+                if out.last() != Some(&c) {
+                    out.push(c);
+                }
+            }
+            while out.len() > 1 && out.first() == out.last() {
+                out.pop();
+            }
+            out
+        })
+        .collect()
+}
+
 /// Compress every loop within `tol`, keeping chains shared between loops identical: each
 /// loop is cut into runs of consecutive points owned by the same set of loops (points are
 /// compared bit for bit), the cut points are kept, and each run is compressed in a canonical
 /// direction. A loop whose compression is not simple is retried at half the tolerance, and
-/// left as it was after 6 tries.
+/// left as it was after 6 tries. Points closer than a small fraction of `tol` are made one
+/// point first ([`snap_close_points`]).
 pub(crate) fn simplify_shared(loops: &[Vec<Point>], tol: f64) -> Vec<Vec<Point>> {
+    let loops = &snap_close_points(loops, SNAP_FRACTION * tol);
     let mut owners: HashMap<(u64, u64), Vec<u32>> = HashMap::new();
     for (id, lp) in loops.iter().enumerate() {
         for &p in lp {
@@ -645,6 +727,65 @@ pub(crate) fn refine_innermost(polys: &[&[Point]], start: Point, cell: f64) -> P
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    type Edge = ((u64, u64), (u64, u64));
+
+    /// How many times the loops use each edge (either direction).
+    fn edge_uses(loops: &[Vec<Point>]) -> HashMap<Edge, usize> {
+        let mut uses = HashMap::new();
+        for lp in loops {
+            for i in 0..lp.len() {
+                let (a, b) = (key(lp[i]), key(lp[(i + 1) % lp.len()]));
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        uses
+    }
+
+    #[test]
+    fn two_junctions_a_hair_apart_become_one() {
+        // Zones L and R of one section tile the square [0, 2] × [0, 1]; U of the other
+        // section is the square. L and R each found their own junction on the top side,
+        // a = (1, 1) and a2 = (1.0001, 1): L ends its bisecting edge at a2, R at a, so both
+        // hold the edge a–a2, and with U it is used three times.
+        let (a, a2) = ([1.0, 1.0], [1.0001, 1.0]);
+        let l = vec![[0.0, 0.0], [1.0, 0.0], a2, a, [0.0, 1.0]];
+        let r = vec![[1.0, 0.0], [2.0, 0.0], [2.0, 1.0], a2, a];
+        let u = vec![
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            a2,
+            a,
+            [0.0, 1.0],
+        ];
+        let before = [l, r, u];
+        assert!(edge_uses(&before).values().any(|&n| n == 3));
+        let out = snap_close_points(&before, 0.001);
+        assert!(edge_uses(&out).values().all(|&n| n == 2), "{out:?}");
+        // One point, the first met, in every loop.
+        assert!(out.iter().all(|lp| lp.contains(&a2) && !lp.contains(&a)));
+        assert_eq!(out.iter().map(|lp| lp.len()).collect::<Vec<_>>(), [4, 4, 6]);
+    }
+
+    #[test]
+    fn close_points_that_are_not_an_edge_everywhere_stay() {
+        // A loop passing a hair from itself (a pinch would follow), and two loops whose
+        // corners nearly touch: merging either would change the loops' shape, not mend them.
+        let pinch = vec![
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.5],
+            [2.0, 1.0],
+            [0.0, 1.0],
+            [1.0001, 0.5],
+        ];
+        let corner_a = vec![[3.0, 0.0], [4.0, 0.0], [4.0, 1.0]];
+        let corner_b = vec![[4.0001, 1.0], [5.0, 1.0], [5.0, 2.0]];
+        let loops = [pinch, corner_a, corner_b];
+        assert_eq!(snap_close_points(&loops, 0.001), loops);
+    }
 
     #[test]
     fn shared_chain_compresses_identically_both_ways() {
