@@ -69,7 +69,7 @@ proptest! {
         let refs: Vec<&[Point]> = hole_loops.iter().map(|h| h.as_slice()).collect();
         // The other slice's contour is a small disc in the middle, so a way out to the rim
         // always exists.
-        let cuts = slits(&outer, &refs, &[], &[&below], 0.5);
+        let cuts = slits(&outer, &refs, &[], &[&below], 0.5, true);
         prop_assert!(cuts.is_some(), "no slits for {} holes", refs.len());
         let cuts = cuts.unwrap_or_default();
         prop_assert_eq!(cuts.len(), refs.len());
@@ -132,7 +132,7 @@ proptest! {
             [m0, 20.0],
             [0.0, 20.0],
         ];
-        let cuts = slits(&block, &[&hole], &[], &[&bay], 0.25);
+        let cuts = slits(&block, &[&hole], &[], &[&bay], 0.25, true);
         prop_assert!(cuts.is_some(), "no slit");
         let cuts = cuts.unwrap_or_default();
         let rings: [&[Point]; 2] = [&block, &hole];

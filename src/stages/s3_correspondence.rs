@@ -306,7 +306,8 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
             .filter(|&h| own.hole[h] && own.arr.parent[h] == Some(k) && !trial.contains(&h))
             .map(|h| own.pts[h])
             .collect();
-        if let Some(s) = slits(own.pts[k], &joined, &rest, others, search_step(own.pts[c])) {
+        let step = search_step(own.pts[c]);
+        if let Some(s) = slits(own.pts[k], &joined, &rest, others, step, true) {
             best.holes = trial;
             best.slits = s;
         }
