@@ -278,6 +278,20 @@ pub fn run_surfaces(
                 s7_skinning::run(fitted_rx, config.tolerance_mm, surfaces_tx, ctl),
             )
         });
+        // The writer joins the other stages before it commits its files (and they are
+        // joined after it if it stops early).
+        let mut handles = Some((front, [branching, alignment, fitting, skinning]));
+        let mut join_upstream = |failure: &mut Option<Error>, summary: &mut RunSummary| {
+            if let Some((front, rest)) = handles.take() {
+                if let Some((counts, stats)) = settle(join(front), failure) {
+                    summary.input = counts;
+                    summary.stages.extend(stats);
+                }
+                for h in rest {
+                    summary.stages.extend(settle(join(h), failure));
+                }
+            }
+        };
         let written = cancel_on_error(
             ctl,
             s8_write::run(
@@ -287,15 +301,16 @@ pub fn run_surfaces(
                 config.mesh_chordal * config.tolerance_mm,
                 &config.outputs,
                 ctl,
+                &mut || {
+                    join_upstream(&mut failure, &mut summary);
+                    match failure {
+                        Some(_) => Err(Error::Cancelled),
+                        None => Ok(()),
+                    }
+                },
             ),
         );
-        if let Some((counts, stats)) = settle(join(front), &mut failure) {
-            summary.input = counts;
-            summary.stages.extend(stats);
-        }
-        for h in [branching, alignment, fitting, skinning] {
-            summary.stages.extend(settle(join(h), &mut failure));
-        }
+        join_upstream(&mut failure, &mut summary);
         if let Some(w) = settle(written, &mut failure) {
             summary.stages.push(w.stats.clone());
             summary.written = w;

@@ -90,6 +90,7 @@ pub fn run(
     chordal_mm: f64,
     outputs: &OutputOptions,
     ctl: &Control,
+    upstream: &mut dyn FnMut() -> Result<()>,
 ) -> Result<Written> {
     let mut written = Written {
         stats: StageStats {
@@ -157,6 +158,9 @@ pub fn run(
         written.stats.items += 1;
     }
     ctl.check()?;
+    // The stages before have all returned once the input is drained, but one may have failed
+    // after handing on its last item: no file gets its final name until all have succeeded.
+    upstream()?;
     let t = Instant::now();
     for path in meshes.commit()? {
         written.files.push(file_report(&path)?);
