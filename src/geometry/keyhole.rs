@@ -42,6 +42,7 @@ use std::cell::OnceCell;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use super::distance_map::{inside_mask, Grid};
 use super::polygon::{
     bbox, boxes_disjoint, contains, dist, perimeter, segments_intersect, signed_boundary_distance,
     Point,
@@ -365,10 +366,7 @@ const SHALLOW_SEARCH: f64 = 8.0;
 /// inside, a long way round from the open field (skull surface 353: a 1.8 mm slit lying
 /// 1.05 mm clear of the next contour, 30 mm inside its bay).
 struct BayDepth {
-    origin: Point,
-    cell: f64,
-    width: usize,
-    height: usize,
+    grid: Grid,
     dist: Vec<f64>,
 }
 
@@ -390,42 +388,19 @@ impl BayDepth {
                 b[3].max(ob[3]),
             ]
         });
-        let span = (b[2] - b[0]).max(b[3] - b[1]);
-        if !span.is_finite() {
-            return None;
-        }
-        let cell = (span / BAY_RASTER).max(BAY_CELL_MM);
-        // Two cells of open field all round.
-        let origin = [b[0] - 2.0 * cell, b[1] - 2.0 * cell];
-        let width = ((b[2] - b[0]) / cell).ceil() as usize + 5;
-        let height = ((b[3] - b[1]) / cell).ceil() as usize + 5;
-        // The other slice's material, row by row (even–odd crossings of each contour).
-        let mut solid = vec![false; width * height];
-        let mut xs: Vec<f64> = Vec::new();
-        for r in 0..height {
-            let y = origin[1] + (r as f64 + 0.5) * cell;
-            for o in outside_of {
-                xs.clear();
-                let n = o.len();
-                for i in 0..n {
-                    let (p, q) = (o[i], o[(i + 1) % n]);
-                    if (p[1] > y) != (q[1] > y) {
-                        xs.push(p[0] + (y - p[1]) / (q[1] - p[1]) * (q[0] - p[0]));
-                    }
-                }
-                xs.sort_by(f64::total_cmp);
-                for pair in xs.chunks_exact(2) {
-                    let c0 = ((pair[0] - origin[0]) / cell - 0.5).ceil().max(0.0) as usize;
-                    let c1 = ((pair[1] - origin[0]) / cell - 0.5).floor();
-                    if c1 < 0.0 {
-                        continue;
-                    }
-                    for c in c0..=(c1 as usize).min(width - 1) {
-                        solid[r * width + c] = true;
-                    }
-                }
-            }
-        }
+        let cell = ((b[2] - b[0]).max(b[3] - b[1]) / BAY_RASTER).max(BAY_CELL_MM);
+        // Two samples of open field all round (at cell centres: the box shifted by half a
+        // cell); the cell bounds the size.
+        let h = 0.5 * cell;
+        let grid = Grid::covering(
+            [b[0] + h, b[1] + h, b[2] + h, b[3] + h],
+            cell,
+            2,
+            usize::MAX,
+        )
+        .ok()?;
+        let (width, height) = (grid.width, grid.height);
+        let solid = inside_mask(&grid, outside_of);
         // Dijkstra from the raster's border through the void.
         let mut dist = vec![f64::INFINITY; width * height];
         let mut heap = BinaryHeap::new();
@@ -471,34 +446,23 @@ impl BayDepth {
                 }
             }
         }
-        Some(BayDepth {
-            origin,
-            cell,
-            width,
-            height,
-            dist,
-        })
+        Some(BayDepth { grid, dist })
     }
 
-    /// The depth at `p`: the least over its cell and the cells round it plus the way there
-    /// (a point on a contour of this slice may lie over the other slice's material by a
-    /// hair).
+    /// The depth at `p`: the least over the samples round it plus the way there (a point on
+    /// a contour of this slice may lie over the other slice's material by a hair).
     fn at(&self, p: Point) -> f64 {
-        let c = ((p[0] - self.origin[0]) / self.cell).floor() as isize;
-        let r = ((p[1] - self.origin[1]) / self.cell).floor() as isize;
+        let g = &self.grid;
+        let q = g.to_pixel(p);
+        let (c, r) = (q[0].round() as isize, q[1].round() as isize);
         let mut best = f64::INFINITY;
-        for dr in -1..=1 {
-            for dc in -1..=1 {
-                let (rr, cc) = (r + dr, c + dc);
-                if rr < 0 || cc < 0 || rr >= self.height as isize || cc >= self.width as isize {
+        for rr in r - 1..=r + 1 {
+            for cc in c - 1..=c + 1 {
+                if rr < 0 || cc < 0 || rr >= g.height as isize || cc >= g.width as isize {
                     continue;
                 }
-                let centre = [
-                    self.origin[0] + (cc as f64 + 0.5) * self.cell,
-                    self.origin[1] + (rr as f64 + 0.5) * self.cell,
-                ];
-                let d = self.dist[rr as usize * self.width + cc as usize];
-                best = best.min(d + dist(p, centre));
+                let (rr, cc) = (rr as usize, cc as usize);
+                best = best.min(self.dist[rr * g.width + cc] + dist(p, g.point(rr, cc)));
             }
         }
         best

@@ -304,6 +304,7 @@ pub(crate) fn snap_close_points(loops: &[Vec<Point>], eps: f64) -> Vec<Vec<Point
     let bin = |p: Point| ((p[0] / eps).floor() as i64, (p[1] / eps).floor() as i64);
     let mut bins: HashMap<(i64, i64), Vec<Point>> = HashMap::new();
     let mut to: HashMap<(u64, u64), Point> = HashMap::new();
+    let mut snapped = false;
     for &p in loops.iter().flatten() {
         if to.contains_key(&key(p)) {
             continue;
@@ -322,6 +323,7 @@ pub(crate) fn snap_close_points(loops: &[Vec<Point>], eps: f64) -> Vec<Vec<Point
         }
         match best {
             Some((_, c)) if beside(p, c) && beside(c, p) => {
+                snapped = true;
                 to.insert(key(p), c);
             }
             _ => {
@@ -330,7 +332,7 @@ pub(crate) fn snap_close_points(loops: &[Vec<Point>], eps: f64) -> Vec<Vec<Point
             }
         }
     }
-    if to.iter().all(|(k, c)| *k == key(*c)) {
+    if !snapped {
         return loops.to_vec();
     }
     loops
