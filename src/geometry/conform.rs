@@ -10,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use super::polygon::Point;
+use super::polygon::{dist, Point};
 
 /// Insert into every loop each vertex of another loop that lies within `eps` of one of its
 /// edges (strictly between the edge's ends) and is not already one of its vertices. Returns the
@@ -26,7 +26,7 @@ pub fn conform(loops: &mut [&mut Vec<Point>], eps: f64) -> usize {
     for l in loops.iter() {
         for i in 0..l.len() {
             let (a, b) = (l[i], l[(i + 1) % l.len()]);
-            len_sum += (b[0] - a[0]).hypot(b[1] - a[1]);
+            len_sum += dist(a, b);
             edges += 1;
         }
     }

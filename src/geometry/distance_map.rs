@@ -35,7 +35,7 @@
 
 use rayon::prelude::*;
 
-use super::polygon::{bbox, Point};
+use super::polygon::{bbox, dist, Point};
 use super::GeometryError;
 
 /// Samples closer than this (in cells) to a polygon are seeds of the transform.
@@ -503,7 +503,7 @@ fn seed_distance_and_segment(grid: &Grid, segs: &Segments) -> (Vec<f64>, Vec<u32
         let (a, b) = segs.ends(s);
         // Long segments are walked in pieces about one cell long, so the visited boxes hug
         // the segment instead of covering its whole bounding box.
-        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let len = dist(a, b);
         let pieces = ((len / cell).ceil() as usize).clamp(1, 1 << 24);
         for piece in 0..pieces {
             let t0 = piece as f64 / pieces as f64;

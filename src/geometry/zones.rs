@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
-use super::polygon::{is_simple, signed_area, Point};
+use super::polygon::{dist, is_simple, signed_area, Point};
 use super::simplify::{mark, simplify_closed};
 
 /// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
@@ -314,7 +314,7 @@ pub(crate) fn snap_close_points(loops: &[Vec<Point>], eps: f64) -> Vec<Vec<Point
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for &c in bins.get(&(bx + dx, by + dy)).into_iter().flatten() {
-                    let d = (c[0] - p[0]).hypot(c[1] - p[1]);
+                    let d = dist(c, p);
                     if d <= eps && best.is_none_or(|(bd, _)| d < bd) {
                         best = Some((d, c));
                     }
