@@ -44,8 +44,7 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{inside_mask, Grid};
 use super::polygon::{
-    bbox, boxes_disjoint, contains, dist, perimeter, segments_intersect, signed_boundary_distance,
-    Point,
+    bbox, boxes_disjoint, contains, dist, perimeter, segments_intersect, BoundaryIndex, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -98,6 +97,9 @@ pub fn slits(
     let mut made: Vec<(Point, Point)> = Vec::new();
     let mut out = Vec::with_capacity(holes.len());
     let bay_depth: OnceCell<Option<BayDepth>> = OnceCell::new();
+    // The clearance of every candidate slit asks these, thousands of times per hole.
+    let other_slice: Vec<BoundaryIndex> =
+        outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
     for (k, &hole) in holes.iter().enumerate() {
         if hole.len() < 3 {
             return None;
@@ -130,9 +132,9 @@ pub fn slits(
                 .iter()
                 .map(|&t| {
                     let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                    outside_of
+                    other_slice
                         .iter()
-                        .map(|o| signed_boundary_distance(o, p))
+                        .map(|o| o.signed_distance(p))
                         .fold(f64::INFINITY, f64::min)
                 })
                 .fold(f64::INFINITY, f64::min)

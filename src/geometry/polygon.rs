@@ -103,6 +103,164 @@ pub fn signed_boundary_distance(pts: &[Point], p: Point) -> f64 {
     }
 }
 
+/// [`boundary_distance`] to one closed polygon, for many queries: its edges binned on a
+/// uniform grid, searched in square rings round the query's cell until no unsearched edge
+/// can be nearer. The minimum is taken over the same [`point_segment_distance`] values as
+/// [`boundary_distance`], so the result is the same to the bit.
+pub struct BoundaryIndex<'a> {
+    pts: &'a [Point],
+    origin: Point,
+    cell: f64,
+    width: usize,
+    height: usize,
+    /// Edges (by first vertex) of each cell, row-major: `edges[start[k]..start[k + 1]]`.
+    start: Vec<usize>,
+    edges: Vec<u32>,
+}
+
+impl<'a> BoundaryIndex<'a> {
+    /// Cells about two mean edge lengths wide, at most [`Self::MAX_CELLS`] along a side.
+    const MAX_CELLS: f64 = 512.0;
+
+    pub fn new(pts: &'a [Point]) -> Self {
+        let n = pts.len();
+        let b = bbox(pts);
+        let extent = (b[2] - b[0]).max(b[3] - b[1]);
+        let mean_edge = if n > 0 {
+            perimeter(pts) / n as f64
+        } else {
+            0.0
+        };
+        let cell = (2.0 * mean_edge).max(extent / Self::MAX_CELLS);
+        let cell = if cell.is_finite() && cell > 0.0 {
+            cell
+        } else {
+            1.0
+        };
+        let cells = |len: f64| (len / cell).floor() as usize + 1;
+        let finite = n > 0 && b.iter().all(|v| v.is_finite());
+        let (width, height) = if finite {
+            (cells(b[2] - b[0]), cells(b[3] - b[1]))
+        } else {
+            (0, 0)
+        };
+        let origin = if finite { [b[0], b[1]] } else { [0.0, 0.0] };
+        let mut index = BoundaryIndex {
+            pts,
+            origin,
+            cell,
+            width,
+            height,
+            start: Vec::new(),
+            edges: Vec::new(),
+        };
+        // Each edge in every cell its bounding box meets: counted, then filled.
+        let span = |i: usize| {
+            let (a, b) = (pts[i], pts[(i + 1) % n]);
+            let (c0, r0) = index.clamped(index.cell_of([a[0].min(b[0]), a[1].min(b[1])]));
+            let (c1, r1) = index.clamped(index.cell_of([a[0].max(b[0]), a[1].max(b[1])]));
+            (c0, r0, c1, r1)
+        };
+        let mut count = vec![0usize; width * height + 1];
+        for i in (0..n).filter(|_| finite) {
+            let (c0, r0, c1, r1) = span(i);
+            for r in r0..=r1 {
+                for c in c0..=c1 {
+                    count[r * width + c + 1] += 1;
+                }
+            }
+        }
+        for k in 1..count.len() {
+            count[k] += count[k - 1];
+        }
+        let mut fill = count.clone();
+        let mut edges = vec![0u32; count[width * height]];
+        for i in (0..n).filter(|_| finite) {
+            let (c0, r0, c1, r1) = span(i);
+            for r in r0..=r1 {
+                for c in c0..=c1 {
+                    let k = r * width + c;
+                    edges[fill[k]] = i as u32;
+                    fill[k] += 1;
+                }
+            }
+        }
+        index.start = count;
+        index.edges = edges;
+        index
+    }
+
+    /// The cell holding `p`, unclamped (it may lie off the grid).
+    fn cell_of(&self, p: Point) -> (i64, i64) {
+        let f = |v: f64, o: f64| ((v - o) / self.cell).floor().clamp(-1e15, 1e15) as i64;
+        (f(p[0], self.origin[0]), f(p[1], self.origin[1]))
+    }
+
+    fn clamped(&self, (c, r): (i64, i64)) -> (usize, usize) {
+        (
+            c.clamp(0, self.width as i64 - 1) as usize,
+            r.clamp(0, self.height as i64 - 1) as usize,
+        )
+    }
+
+    /// Distance from `p` to the polygon's boundary: [`boundary_distance`].
+    pub fn distance(&self, p: Point) -> f64 {
+        let n = self.pts.len();
+        let (pc, pr) = self.cell_of(p);
+        let (w, h) = (self.width as i64, self.height as i64);
+        // Rings until the square round `p`'s cell covers the grid.
+        let last = (pc.abs().max((w - 1 - pc).abs())).max(pr.abs().max((h - 1 - pr).abs()));
+        // Far off the grid (or no grid: an empty or non-finite polygon) the rings would be
+        // mostly empty: every edge, as [`boundary_distance`] does.
+        if w == 0 || last > 2 * w.max(h) || !(p[0].is_finite() && p[1].is_finite()) {
+            return boundary_distance(self.pts, p);
+        }
+        let mut best = f64::INFINITY;
+        let visit = |c: i64, r: i64, best: &mut f64| {
+            if c < 0 || r < 0 || c >= w || r >= h {
+                return;
+            }
+            let k = r as usize * self.width + c as usize;
+            for &e in &self.edges[self.start[k]..self.start[k + 1]] {
+                let i = e as usize;
+                *best = best.min(point_segment_distance(
+                    p,
+                    self.pts[i],
+                    self.pts[(i + 1) % n],
+                ));
+            }
+        };
+        visit(pc, pr, &mut best);
+        for ring in 1..=last {
+            // An edge not yet visited meets no cell within `ring - 1` of `p`'s cell, so it
+            // lies at least `ring - 1` cells from `p`.
+            if best <= (ring - 1) as f64 * self.cell {
+                break;
+            }
+            let (c0, c1, r0, r1) = (pc - ring, pc + ring, pr - ring, pr + ring);
+            for c in c0..=c1 {
+                visit(c, r0, &mut best);
+                visit(c, r1, &mut best);
+            }
+            for r in r0 + 1..r1 {
+                visit(c0, r, &mut best);
+                visit(c1, r, &mut best);
+            }
+        }
+        best
+    }
+
+    /// [`signed_boundary_distance`]: negative when `p` lies inside.
+    pub fn signed_distance(&self, p: Point) -> f64 {
+        let d = self.distance(p);
+        if contains(self.pts, p) {
+            -d
+        } else {
+            d
+        }
+    }
+}
+
 /// Whether the closed polygon is simple: no two non-adjacent edges touch or cross, and no
 /// edge has zero length.
 pub fn is_simple(pts: &[Point]) -> bool {
@@ -292,5 +450,65 @@ mod tests {
         assert!(!is_simple(&spike));
         let repeated = [[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [1.0, 1.0]];
         assert!(!is_simple(&repeated));
+    }
+
+    /// A star-shaped polygon of `radii` round `centre`, wiggly and with long and short edges.
+    fn star(centre: Point, radii: &[f64]) -> Vec<Point> {
+        let n = radii.len();
+        (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                [
+                    centre[0] + radii[i] * a.cos(),
+                    centre[1] + radii[i] * a.sin(),
+                ]
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// The index gives exactly the linear scan's distance, to the bit, near and far.
+        #[test]
+        fn boundary_index_matches_the_linear_scan(
+            radii in proptest::collection::vec(0.5f64..40.0, 3..300),
+            centre in (-100.0f64..100.0, -100.0f64..100.0),
+            queries in proptest::collection::vec((-300.0f64..300.0, -300.0f64..300.0), 1..60),
+        ) {
+            let poly = star([centre.0, centre.1], &radii);
+            let index = BoundaryIndex::new(&poly);
+            for (x, y) in queries {
+                // Queries all round, and some right on a vertex.
+                for p in [[x, y], [centre.0 + x / 10.0, centre.1 + y / 10.0], poly[(x.abs() as usize) % poly.len()]] {
+                    proptest::prop_assert_eq!(
+                        index.distance(p).to_bits(),
+                        boundary_distance(&poly, p).to_bits(),
+                        "{:?}", p
+                    );
+                    proptest::prop_assert_eq!(
+                        index.signed_distance(p).to_bits(),
+                        signed_boundary_distance(&poly, p).to_bits()
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn boundary_index_of_an_empty_or_degenerate_polygon_agrees_with_the_scan() {
+        for poly in [
+            vec![],
+            vec![[1.0, 2.0]],
+            vec![[0.0, 0.0], [0.0, 0.0]],
+            vec![[f64::NAN, 0.0], [1.0, 1.0], [2.0, 0.0]],
+        ] {
+            let index = BoundaryIndex::new(&poly);
+            for p in [[0.0, 0.0], [5.0, -3.0], [1e12, 1e12]] {
+                let (a, b) = (index.distance(p), boundary_distance(&poly, p));
+                assert!(
+                    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                    "{poly:?} {p:?}: {a} {b}"
+                );
+            }
+        }
     }
 }
