@@ -357,7 +357,12 @@ fn uniform(label: &[u32], r: usize, c: usize, w: usize, h: usize) -> bool {
 }
 
 /// The 8-neighbourhood of sample `(r, c)` inside a `w × h` raster.
-fn neighbours(r: usize, c: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+pub(crate) fn neighbours(
+    r: usize,
+    c: usize,
+    w: usize,
+    h: usize,
+) -> impl Iterator<Item = (usize, usize)> {
     let rows = r.saturating_sub(1)..=(r + 1).min(h - 1);
     rows.flat_map(move |nr| {
         let cols = c.saturating_sub(1)..=(c + 1).min(w - 1);

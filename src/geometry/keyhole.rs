@@ -42,9 +42,9 @@ use std::cell::OnceCell;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use super::distance_map::{inside_mask, Grid};
+use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    bbox, boxes_disjoint, contains, dist, perimeter, segments_intersect, BoundaryIndex, Point,
+    boxes_disjoint, contains, dist, perimeter, segments_intersect, BoundaryIndex, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -381,15 +381,10 @@ impl BayDepth {
         if outside_of.is_empty() {
             return None;
         }
-        let b = outside_of.iter().fold(bbox(contour), |b, o| {
-            let ob = bbox(o);
-            [
-                b[0].min(ob[0]),
-                b[1].min(ob[1]),
-                b[2].max(ob[2]),
-                b[3].max(ob[3]),
-            ]
-        });
+        let both: Vec<&[Point]> = std::iter::once(contour)
+            .chain(outside_of.iter().copied())
+            .collect();
+        let b = bbox_of(&both);
         let cell = ((b[2] - b[0]).max(b[3] - b[1]) / BAY_RASTER).max(BAY_CELL_MM);
         // Two samples of open field all round (at cell centres: the box shifted by half a
         // cell); the cell bounds the size.
@@ -421,26 +416,13 @@ impl BayDepth {
             if d > dist[k] {
                 continue;
             }
-            let (r, c) = ((k / width) as isize, (k % width) as isize);
-            for (dr, dc) in [
-                (-1, -1),
-                (-1, 0),
-                (-1, 1),
-                (0, -1),
-                (0, 1),
-                (1, -1),
-                (1, 0),
-                (1, 1),
-            ] {
-                let (rr, cc) = (r + dr, c + dc);
-                if rr < 0 || cc < 0 || rr >= height as isize || cc >= width as isize {
-                    continue;
-                }
-                let j = rr as usize * width + cc as usize;
+            let (r, c) = (k / width, k % width);
+            for (rr, cc) in neighbours(r, c, width, height) {
+                let j = rr * width + cc;
                 if solid[j] {
                     continue;
                 }
-                let nd = d + if dr != 0 && dc != 0 { diagonal } else { cell };
+                let nd = d + if rr != r && cc != c { diagonal } else { cell };
                 if nd < dist[j] {
                     dist[j] = nd;
                     // Non-negative floats order as their bits.
