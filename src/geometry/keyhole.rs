@@ -334,11 +334,8 @@ fn shortest_clear(
                 unclear.push((c, i));
             }
         }
-        if deep.is_some() {
-            start = end;
-            continue;
-        }
-        if fallback.is_none() {
+        // Past a deep slit only a shallow clear one is looked for; no fallback is needed.
+        if deep.is_none() && fallback.is_none() {
             unclear.sort_by(|x, y| y.0.total_cmp(&x.0));
             fallback = unclear
                 .iter()
