@@ -13,6 +13,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
 use super::polygon::{dist, is_simple, signed_area, Point};
@@ -29,6 +31,7 @@ const TIE: f64 = 1e-30;
 /// meet; elsewhere `ψ_i ≥ d_3 − d_1 > 0` and that bound is used (`−∞` when no other contour
 /// is near, which marching squares counts as outside). An exact tie goes to the nearer
 /// label. A zone with no neighbour is everything (`+∞`).
+#[inline]
 pub(crate) fn neg_psi(near: &NearestContours, i: u32, k: usize) -> f64 {
     let (d1, d2) = (near.min1[k] as f64, near.min2[k] as f64);
     if near.label1[k] == i {
@@ -62,34 +65,60 @@ pub(crate) struct Window {
 impl Window {
     /// The bounding window of the samples `k` with `inside(k)`, per label `label(k)` (labels
     /// `0..count`, others ignored), grown by two samples and clamped to the raster; `None`
-    /// for a label with no sample. One pass over the raster for all labels.
-    pub(crate) fn per_label(
+    /// for a label with no sample. One pass over the raster for all labels, in bands of rows
+    /// in parallel (the union of boxes does not depend on how the rows were split).
+    pub(crate) fn per_label<I, L>(
         grid: &Grid,
         count: usize,
-        inside: &(dyn Fn(usize) -> bool + Sync),
-        label: &(dyn Fn(usize) -> u32 + Sync),
-    ) -> Vec<Option<Window>> {
+        inside: &I,
+        label: &L,
+    ) -> Vec<Option<Window>>
+    where
+        I: Fn(usize) -> bool + Sync,
+        L: Fn(usize) -> u32 + Sync,
+    {
         let (w, h) = (grid.width, grid.height);
-        let mut out: Vec<Option<Window>> = vec![None; count];
-        for r in 0..h {
-            for c in 0..w {
-                let k = r * w + c;
-                let l = label(k) as usize;
-                if l >= count || !inside(k) {
-                    continue;
-                }
-                let b = out[l].get_or_insert(Window {
-                    r0: r,
-                    r1: r,
-                    c0: c,
-                    c1: c,
-                });
-                b.r0 = b.r0.min(r);
-                b.r1 = b.r1.max(r);
-                b.c0 = b.c0.min(c);
-                b.c1 = b.c1.max(c);
+        let union = |mut a: Vec<Option<Window>>, b: Vec<Option<Window>>| {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x = match (*x, y) {
+                    (Some(p), Some(q)) => Some(Window {
+                        r0: p.r0.min(q.r0),
+                        r1: p.r1.max(q.r1),
+                        c0: p.c0.min(q.c0),
+                        c1: p.c1.max(q.c1),
+                    }),
+                    (p, q) => p.or(q),
+                };
             }
-        }
+            a
+        };
+        let mut out = (0..h)
+            .into_par_iter()
+            .with_min_len(16)
+            .fold(
+                || vec![None; count],
+                |mut acc: Vec<Option<Window>>, r| {
+                    for c in 0..w {
+                        let k = r * w + c;
+                        let l = label(k) as usize;
+                        if l >= count || !inside(k) {
+                            continue;
+                        }
+                        let b = acc[l].get_or_insert(Window {
+                            r0: r,
+                            r1: r,
+                            c0: c,
+                            c1: c,
+                        });
+                        b.r0 = b.r0.min(r);
+                        b.r1 = b.r1.max(r);
+                        b.c0 = b.c0.min(c);
+                        b.c1 = b.c1.max(c);
+                    }
+                    acc
+                },
+            )
+            .reduce(|| vec![None; count], union);
         for b in out.iter_mut().flatten() {
             b.r0 = b.r0.saturating_sub(2);
             b.c0 = b.c0.saturating_sub(2);
@@ -120,12 +149,11 @@ const T_MARGIN: f64 = 1e-4;
 /// marching squares then runs on the window alone and gives the same loops, the same points
 /// bit for bit (they are moved to raster coordinates, integers exactly, before the crossings
 /// are placed), at the cost of the window instead of the whole raster.
-pub(crate) fn zone_loops(
-    grid: &Grid,
-    g: &(dyn Fn(usize) -> f64 + Sync),
-    n: &(dyn Fn(usize) -> f64 + Sync),
-    window: Option<Window>,
-) -> Vec<Vec<Point>> {
+pub(crate) fn zone_loops<G, N>(grid: &Grid, g: &G, n: &N, window: Option<Window>) -> Vec<Vec<Point>>
+where
+    G: Fn(usize) -> f64 + Sync,
+    N: Fn(usize) -> f64 + Sync,
+{
     let (w, h) = (grid.width, grid.height);
     let win = window.unwrap_or(Window {
         r0: 0,
@@ -137,12 +165,13 @@ pub(crate) fn zone_loops(
         return Vec::new();
     }
     let (ww, wh) = (win.c1 - win.c0 + 1, win.r1 - win.r0 + 1);
-    let mut field: Vec<f32> = Vec::with_capacity(ww * wh);
-    for r in win.r0..=win.r1 {
-        for k in r * w + win.c0..=r * w + win.c1 {
-            field.push(g(k).min(n(k)) as f32);
+    let mut field = vec![0.0f32; ww * wh];
+    field.par_chunks_mut(ww).enumerate().for_each(|(i, row)| {
+        let start = (win.r0 + i) * w + win.c0;
+        for (v, k) in row.iter_mut().zip(start..) {
+            *v = g(k).min(n(k)) as f32;
         }
-    }
+    });
     let mut loops = iso_loops(&field, ww, wh, 0.0);
     let offset = [win.c0 as f64, win.r0 as f64];
     for lp in loops.iter_mut() {
