@@ -44,7 +44,8 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    boxes_disjoint, contains, dist, perimeter, segments_intersect, BoundaryIndex, Point,
+    boxes_disjoint, contains, dist, least_signed_distance, perimeter, segments_intersect,
+    BoundaryIndex, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -132,10 +133,7 @@ pub fn slits(
                 .iter()
                 .map(|&t| {
                     let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                    other_slice
-                        .iter()
-                        .map(|o| o.signed_distance(p))
-                        .fold(f64::INFINITY, f64::min)
+                    least_signed_distance(&other_slice, p)
                 })
                 .fold(f64::INFINITY, f64::min)
         };

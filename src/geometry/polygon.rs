@@ -116,6 +116,12 @@ pub struct BoundaryIndex<'a> {
     /// Edges (by first vertex) of each cell, row-major: `edges[start[k]..start[k + 1]]`.
     start: Vec<usize>,
     edges: Vec<u32>,
+    /// Edges of each row of cells, each once: `row_edges[row_start[r]..row_start[r + 1]]`.
+    /// A horizontal line through a row crosses only these.
+    row_start: Vec<usize>,
+    row_edges: Vec<u32>,
+    /// The polygon's bounding box, `[min_x, min_y, max_x, max_y]`.
+    bbox: [f64; 4],
 }
 
 impl<'a> BoundaryIndex<'a> {
@@ -153,6 +159,9 @@ impl<'a> BoundaryIndex<'a> {
             height,
             start: Vec::new(),
             edges: Vec::new(),
+            row_start: Vec::new(),
+            row_edges: Vec::new(),
+            bbox: b,
         };
         // Each edge in every cell its bounding box meets: counted, then filled.
         let span = |i: usize| {
@@ -185,9 +194,69 @@ impl<'a> BoundaryIndex<'a> {
                 }
             }
         }
-        index.start = count;
-        index.edges = edges;
+        let (cell_start, cell_edges) = (count, edges);
+        let mut count = vec![0usize; height + 1];
+        for i in (0..n).filter(|_| finite) {
+            let (_, r0, _, r1) = span(i);
+            for r in r0..=r1 {
+                count[r + 1] += 1;
+            }
+        }
+        for k in 1..count.len() {
+            count[k] += count[k - 1];
+        }
+        let mut fill = count.clone();
+        let mut row_edges = vec![0u32; count[height]];
+        for i in (0..n).filter(|_| finite) {
+            let (_, r0, _, r1) = span(i);
+            for f in &mut fill[r0..=r1] {
+                row_edges[*f] = i as u32;
+                *f += 1;
+            }
+        }
+        index.start = cell_start;
+        index.edges = cell_edges;
+        index.row_start = count;
+        index.row_edges = row_edges;
         index
+    }
+
+    /// [`contains`], asking only the edges of the row of cells `p` lies in: an edge that a
+    /// horizontal line through `p` crosses has `p`'s ordinate within its own, so its box
+    /// meets that row (`floor` is monotonic). The same crossing rule on the same edges, so
+    /// the same answer.
+    pub fn contains(&self, p: Point) -> bool {
+        let n = self.pts.len();
+        if self.height == 0 || !p[1].is_finite() {
+            return contains(self.pts, p);
+        }
+        let r = self.cell_of(p).1;
+        if r < 0 || r >= self.height as i64 {
+            // Beyond the box's ordinates no edge straddles `p`'s.
+            return false;
+        }
+        let r = r as usize;
+        let mut inside = false;
+        for &e in &self.row_edges[self.row_start[r]..self.row_start[r + 1]] {
+            // As `contains` pairs them: vertex i with the one before it.
+            let (a, b) = (self.pts[(e as usize + 1) % n], self.pts[e as usize]);
+            if (a[1] > p[1]) != (b[1] > p[1]) {
+                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                if p[0] < x {
+                    inside = !inside;
+                }
+            }
+        }
+        inside
+    }
+
+    /// A lower bound of [`Self::distance`]: the distance to the polygon's box, less a
+    /// margin far above the rounding of a foot point.
+    fn distance_floor(&self, p: Point) -> f64 {
+        let b = self.bbox;
+        let dx = (b[0] - p[0]).max(p[0] - b[2]).max(0.0);
+        let dy = (b[1] - p[1]).max(p[1] - b[3]).max(0.0);
+        (dx * dx + dy * dy).sqrt() * (1.0 - 1e-9) - 1e-9
     }
 
     /// The cell holding `p`, unclamped (it may lie off the grid).
@@ -253,12 +322,53 @@ impl<'a> BoundaryIndex<'a> {
     /// [`signed_boundary_distance`]: negative when `p` lies inside.
     pub fn signed_distance(&self, p: Point) -> f64 {
         let d = self.distance(p);
-        if contains(self.pts, p) {
+        if self.contains(p) {
             -d
         } else {
             d
         }
     }
+}
+
+/// The least [`BoundaryIndex::signed_distance`] over a set of polygons, bit for bit what
+/// folding `f64::min` over all of them gives, without measuring those that cannot be the
+/// least: when `p` lies inside some, only those (the others are non-negative); else, nearest
+/// box first, until the next box lies farther than the nearest boundary so far.
+pub fn least_signed_distance(set: &[BoundaryIndex], p: Point) -> f64 {
+    let full = || {
+        set.iter()
+            .map(|o| o.signed_distance(p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    if !(p[0].is_finite() && p[1].is_finite()) || set.iter().any(|o| o.height == 0) {
+        return full();
+    }
+    let inside = set
+        .iter()
+        .filter(|o| o.contains(p))
+        .map(|o| -o.distance(p))
+        .fold(f64::INFINITY, f64::min);
+    if inside < 0.0 {
+        return inside;
+    }
+    if inside == 0.0 {
+        // On a boundary it contains: the signs of zeros decide, as the full fold has them.
+        return full();
+    }
+    let mut order: Vec<(f64, usize)> = set
+        .iter()
+        .enumerate()
+        .map(|(k, o)| (o.distance_floor(p), k))
+        .collect();
+    order.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut best = f64::INFINITY;
+    for (floor, k) in order {
+        if floor > best {
+            break;
+        }
+        best = best.min(set[k].distance(p));
+    }
+    best
 }
 
 /// Whether the closed polygon is simple: no two non-adjacent edges touch or cross, and no
@@ -487,6 +597,36 @@ mod tests {
                     proptest::prop_assert_eq!(
                         index.signed_distance(p).to_bits(),
                         signed_boundary_distance(&poly, p).to_bits()
+                    );
+                    proptest::prop_assert_eq!(index.contains(p), contains(&poly, p), "{:?}", p);
+                }
+            }
+        }
+
+        /// Over a set of polygons (near, far, overlapping), the least signed distance is the
+        /// full fold's, to the bit, inside one, two or none of them and on their vertices.
+        #[test]
+        fn least_signed_distance_matches_the_full_fold(
+            stars in proptest::collection::vec(
+                (proptest::collection::vec(0.5f64..20.0, 3..80), -60.0f64..60.0, -60.0f64..60.0),
+                1..8,
+            ),
+            queries in proptest::collection::vec((-120.0f64..120.0, -120.0f64..120.0), 1..40),
+        ) {
+            let polys: Vec<Vec<Point>> =
+                stars.iter().map(|(r, x, y)| star([*x, *y], r)).collect();
+            let set: Vec<BoundaryIndex> = polys.iter().map(|p| BoundaryIndex::new(p)).collect();
+            for (k, (x, y)) in queries.into_iter().enumerate() {
+                let on = &polys[k % polys.len()];
+                for p in [[x, y], on[(x.abs() as usize) % on.len()]] {
+                    let fold = polys
+                        .iter()
+                        .map(|o| signed_boundary_distance(o, p))
+                        .fold(f64::INFINITY, f64::min);
+                    proptest::prop_assert_eq!(
+                        least_signed_distance(&set, p).to_bits(),
+                        fold.to_bits(),
+                        "{:?}", p
                     );
                 }
             }
