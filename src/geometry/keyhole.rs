@@ -44,7 +44,7 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    boxes_disjoint, contains, dist, least_signed_distance, perimeter, segments_intersect,
+    boxes_disjoint, clear_of, contains, dist, least_signed_distance, perimeter, segments_intersect,
     BoundaryIndex, Point,
 };
 
@@ -148,7 +148,15 @@ pub fn slits(
                 .as_ref()
                 .is_none_or(|d| d.at(at(&rings, s.from)) <= DEEP_BAY_MM)
         };
-        let slit = shortest_clear(&rings, h, step, admissible, clearance, shallow)?;
+        // Whether the slit's middle half lies clear: `clearance > CLEAR`, without measuring.
+        let clear = |s: &Slit| {
+            let (a, b) = (at(&rings, s.from), at(&rings, s.to));
+            [0.25, 0.5, 0.75].iter().all(|&t| {
+                let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                clear_of(&other_slice, p, CLEAR)
+            })
+        };
+        let slit = shortest_clear(&rings, h, step, admissible, clear, clearance, shallow)?;
         made.push((at(&rings, slit.from), at(&rings, slit.to)));
         out.push(slit);
     }
@@ -216,11 +224,14 @@ const CLEAR_SEARCH: f64 = 4.0;
 /// a `clearance` above [`CLEAR`] of the first round holding one (searched up to
 /// [`CLEAR_SEARCH`] times the shortest once any slit is admissible), or failing that the
 /// greatest `clearance` of the first round holding an admissible slit.
+/// `clear(s)` must say whether `clearance(s) > CLEAR`: the values are only measured for the
+/// slits that do not lie clear, when their round ends without a clear one.
 fn shortest_clear(
     rings: &[&[Point]],
     h: usize,
     step: f64,
     admissible: impl Fn(&Slit) -> bool,
+    clear: impl Fn(&Slit) -> bool,
     clearance: impl Fn(&Slit) -> f64,
     shallow: impl Fn(&Slit) -> bool,
 ) -> Option<Slit> {
@@ -313,15 +324,14 @@ fn shortest_clear(
         let end = all.partition_point(|c| c.0 < limit);
         // Shortest first, the first admissible slit lying clear; the others kept, to be
         // tried by how far they lie clear (the sort is stable: ties stay shortest first).
-        let mut unclear: Vec<(f64, usize)> = Vec::new();
+        let mut unclear: Vec<usize> = Vec::new();
         for (i, &(l2, slit)) in all.iter().enumerate().take(end).skip(start) {
             if let Some((d2, d)) = deep {
                 if l2 > SHALLOW_SEARCH * SHALLOW_SEARCH * d2 {
                     return Some(d);
                 }
             }
-            let c = clearance(&slit);
-            if c > CLEAR {
+            if clear(&slit) {
                 if admissible(&slit) {
                     if shallow(&slit) {
                         return Some(slit);
@@ -329,11 +339,15 @@ fn shortest_clear(
                     deep.get_or_insert((l2, slit));
                 }
             } else if fallback.is_none() && deep.is_none() {
-                unclear.push((c, i));
+                unclear.push(i);
             }
         }
         // Past a deep slit only a shallow clear one is looked for; no fallback is needed.
         if deep.is_none() && fallback.is_none() {
+            let mut unclear: Vec<(f64, usize)> = unclear
+                .into_iter()
+                .map(|i| (clearance(&all[i].1), i))
+                .collect();
             unclear.sort_by(|x, y| y.0.total_cmp(&x.0));
             fallback = unclear
                 .iter()

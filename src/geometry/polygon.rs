@@ -250,6 +250,52 @@ impl<'a> BoundaryIndex<'a> {
         inside
     }
 
+    /// Whether [`Self::distance`] exceeds `margin` (≥ 0), searching only the rings of cells
+    /// within it: the same edges' distances decide as in the full search, which can only
+    /// find farther ones beyond (a slack of 1e-9 mm covers the rounding of a foot point).
+    pub fn farther_than(&self, p: Point, margin: f64) -> bool {
+        let n = self.pts.len();
+        let (pc, pr) = self.cell_of(p);
+        let (w, h) = (self.width as i64, self.height as i64);
+        if w == 0 || !(p[0].is_finite() && p[1].is_finite() && margin >= 0.0) {
+            return self.distance(p) > margin;
+        }
+        if self.distance_floor(p) > margin {
+            return true;
+        }
+        let last = (pc.abs().max((w - 1 - pc).abs())).max(pr.abs().max((h - 1 - pr).abs()));
+        let near = |c: i64, r: i64| {
+            if c < 0 || r < 0 || c >= w || r >= h {
+                return false;
+            }
+            let k = r as usize * self.width + c as usize;
+            self.edges[self.start[k]..self.start[k + 1]]
+                .iter()
+                .any(|&e| {
+                    let i = e as usize;
+                    point_segment_distance(p, self.pts[i], self.pts[(i + 1) % n]) <= margin
+                })
+        };
+        for ring in 0..=last {
+            if (ring - 1) as f64 * self.cell > margin + 1e-9 {
+                break;
+            }
+            if ring == 0 {
+                if near(pc, pr) {
+                    return false;
+                }
+                continue;
+            }
+            let (c0, c1, r0, r1) = (pc - ring, pc + ring, pr - ring, pr + ring);
+            if (c0..=c1).any(|c| near(c, r0) || near(c, r1))
+                || (r0 + 1..r1).any(|r| near(c0, r) || near(c1, r))
+            {
+                return false;
+            }
+        }
+        true
+    }
+
     /// A lower bound of [`Self::distance`]: the distance to the polygon's box, less a
     /// margin far above the rounding of a foot point.
     fn distance_floor(&self, p: Point) -> f64 {
@@ -328,6 +374,17 @@ impl<'a> BoundaryIndex<'a> {
             d
         }
     }
+}
+
+/// Whether `p` lies outside every polygon of the set and farther than `margin` (≥ 0) from
+/// each: [`least_signed_distance`]` > margin`, without measuring how far.
+pub fn clear_of(set: &[BoundaryIndex], p: Point, margin: f64) -> bool {
+    if !(p[0].is_finite() && p[1].is_finite() && margin >= 0.0) || set.iter().any(|o| o.height == 0)
+    {
+        return least_signed_distance(set, p) > margin;
+    }
+    set.iter()
+        .all(|o| !o.contains(p) && o.farther_than(p, margin))
 }
 
 /// The least [`BoundaryIndex::signed_distance`] over a set of polygons, bit for bit what
@@ -599,6 +656,11 @@ mod tests {
                         signed_boundary_distance(&poly, p).to_bits()
                     );
                     proptest::prop_assert_eq!(index.contains(p), contains(&poly, p), "{:?}", p);
+                    let d = boundary_distance(&poly, p);
+                    // Margins either side of the distance itself, and the distance exactly.
+                    for margin in [0.0, 0.5 * d, d, 1.5 * d, 7.0] {
+                        proptest::prop_assert_eq!(index.farther_than(p, margin), d > margin);
+                    }
                 }
             }
         }
@@ -628,6 +690,9 @@ mod tests {
                         fold.to_bits(),
                         "{:?}", p
                     );
+                    for margin in [0.0, 0.3, 2.5, 40.0] {
+                        proptest::prop_assert_eq!(clear_of(&set, p, margin), fold > margin);
+                    }
                 }
             }
         }
