@@ -44,8 +44,8 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    boxes_disjoint, clear_of, contains, dist, least_signed_distance, perimeter, segments_intersect,
-    BoundaryIndex, Point,
+    bbox, boxes_disjoint, clear_of, contains, dist, least_signed_distance, perimeter,
+    segments_intersect, BoundaryIndex, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -101,6 +101,9 @@ pub fn slits(
     // The clearance of every candidate slit asks these, thousands of times per hole.
     let other_slice: Vec<BoundaryIndex> =
         outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
+    // And every admissible one asks whether its midpoint lies in the contour, in no hole.
+    let own = BoundaryIndex::new(contour);
+    let hole_boxes: Vec<[f64; 4]> = holes.iter().chain(other_holes).map(|h| bbox(h)).collect();
     for (k, &hole) in holes.iter().enumerate() {
         if hole.len() < 3 {
             return None;
@@ -115,13 +118,23 @@ pub fn slits(
             .chain(holes[k + 1..].iter().copied())
             .chain(other_holes.iter().copied())
             .collect();
+        let wall_boxes: Vec<[f64; 4]> = walls.iter().map(|w| bbox(w)).collect();
         let admissible = |s: &Slit| {
             let (a, b) = (at(&rings, s.from), at(&rings, s.to));
             let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-            contains(contour, mid)
-                && !holes.iter().chain(other_holes).any(|h| contains(h, mid))
-                && !outside_of.iter().any(|o| contains(o, mid))
-                && !crosses_walls(a, b, &walls, s)
+            // A polygon whose ordinates do not reach the point's has no edge a horizontal
+            // line through it crosses: `contains` says no without looking.
+            let in_hole = |(h, b): (&&[Point], &[f64; 4])| {
+                mid[1] >= b[1] && mid[1] < b[3] && contains(h, mid)
+            };
+            own.contains(mid)
+                && !holes
+                    .iter()
+                    .chain(other_holes)
+                    .zip(&hole_boxes)
+                    .any(in_hole)
+                && !other_slice.iter().any(|o| o.contains(mid))
+                && !crosses_walls(a, b, &walls, &wall_boxes, s)
                 && !made.iter().any(|&(p, q)| segments_intersect(a, b, p, q))
         };
         // How far the middle half of the slit lies outside the other slice's contours: the
@@ -464,13 +477,21 @@ impl BayDepth {
 
 /// Whether `a`–`b` meets an edge of `walls` other than the edges at its own two feet (the
 /// first walls are the rings that the feet of `s` index).
-fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], s: &Slit) -> bool {
+fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], boxes: &[[f64; 4]], s: &Slit) -> bool {
     // The edges a foot lies on: its own edge, and the one before when it is a vertex.
     let own = |w: usize, i: usize, f: Foot| {
         let n = walls[w].len();
         f.ring == w && (i == f.edge || (f.t == 0.0 && (i + 1) % n == f.edge))
     };
-    walls.iter().enumerate().any(|(w, wall)| {
+    walls.iter().zip(boxes).enumerate().any(|(w, (wall, bx))| {
+        // A wall whose box lies strictly off the slit's has every edge's box off it too.
+        if bx[2] < a[0].min(b[0])
+            || bx[0] > a[0].max(b[0])
+            || bx[3] < a[1].min(b[1])
+            || bx[1] > a[1].max(b[1])
+        {
+            return false;
+        }
         let n = wall.len();
         (0..n).any(|i| {
             if own(w, i, s.from) || own(w, i, s.to) {
