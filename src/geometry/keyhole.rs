@@ -237,6 +237,7 @@ const CLEAR_SEARCH: f64 = 4.0;
 /// a `clearance` above [`CLEAR`] of the first round holding one (searched up to
 /// [`CLEAR_SEARCH`] times the shortest once any slit is admissible), or failing that the
 /// greatest `clearance` of the first round holding an admissible slit.
+///
 /// `clear(s)` must say whether `clearance(s) > CLEAR`: the values are only measured for the
 /// slits that do not lie clear, when their round ends without a clear one.
 fn shortest_clear(
