@@ -44,8 +44,8 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    bbox, boxes_disjoint, clear_of, contains, dist, least_signed_distance, perimeter,
-    segments_intersect, BoundaryIndex, Point,
+    bbox, boxes_disjoint, clear_of, dist, least_signed_distance, perimeter, segments_intersect,
+    BoundaryIndex, Point,
 };
 
 /// Candidate slits are tried shortest first, in rounds up to this many times the shortest
@@ -101,53 +101,41 @@ pub fn slits(
     // The clearance of every candidate slit asks these, thousands of times per hole.
     let other_slice: Vec<BoundaryIndex> =
         outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
+    // Every boundary a slit must keep off: the contour, the holes (ring `k + 1` is the
+    // `k`-th, so a slit's feet index these too) and the other holes; with their boxes.
+    let walls: Vec<&[Point]> = std::iter::once(contour)
+        .chain(holes.iter().copied())
+        .chain(other_holes.iter().copied())
+        .collect();
+    let wall_boxes: Vec<[f64; 4]> = walls.iter().map(|w| bbox(w)).collect();
     // And every admissible one asks whether its midpoint lies in the contour, in no hole.
-    let own = BoundaryIndex::new(contour);
-    let hole_boxes: Vec<[f64; 4]> = holes.iter().chain(other_holes).map(|h| bbox(h)).collect();
-    for (k, &hole) in holes.iter().enumerate() {
+    let walls_index: Vec<BoundaryIndex> = walls.iter().map(|w| BoundaryIndex::new(w)).collect();
+    for &hole in holes {
         if hole.len() < 3 {
             return None;
         }
         rings.push(hole);
         let h = rings.len() - 1;
-        // Every boundary the slit must keep off: the rings (the hole last), the holes still
-        // to join and the other holes.
-        let walls: Vec<&[Point]> = rings
-            .iter()
-            .copied()
-            .chain(holes[k + 1..].iter().copied())
-            .chain(other_holes.iter().copied())
-            .collect();
-        let wall_boxes: Vec<[f64; 4]> = walls.iter().map(|w| bbox(w)).collect();
         let admissible = |s: &Slit| {
             let (a, b) = (at(&rings, s.from), at(&rings, s.to));
             let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-            // A polygon whose ordinates do not reach the point's has no edge a horizontal
-            // line through it crosses: `contains` says no without looking.
-            let in_hole = |(h, b): (&&[Point], &[f64; 4])| {
-                mid[1] >= b[1] && mid[1] < b[3] && contains(h, mid)
-            };
-            own.contains(mid)
-                && !holes
-                    .iter()
-                    .chain(other_holes)
-                    .zip(&hole_boxes)
-                    .any(in_hole)
+            walls_index[0].contains(mid)
+                && !walls_index[1..].iter().any(|w| w.contains(mid))
                 && !other_slice.iter().any(|o| o.contains(mid))
                 && !crosses_walls(a, b, &walls, &wall_boxes, s)
                 && !made.iter().any(|&(p, q)| segments_intersect(a, b, p, q))
         };
-        // How far the middle half of the slit lies outside the other slice's contours: the
-        // least signed distance (negative inside) at its quarter, half and three-quarter
-        // points.
-        let clearance = |s: &Slit| {
+        // The slit's middle half: its quarter, half and three-quarter points.
+        let middle = |s: &Slit| {
             let (a, b) = (at(&rings, s.from), at(&rings, s.to));
-            [0.25, 0.5, 0.75]
+            [0.25, 0.5, 0.75].map(|t| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
+        };
+        // How far the middle half lies outside the other slice's contours: the least signed
+        // distance (negative inside) at those points.
+        let clearance = |s: &Slit| {
+            middle(s)
                 .iter()
-                .map(|&t| {
-                    let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                    least_signed_distance(&other_slice, p)
-                })
+                .map(|&p| least_signed_distance(&other_slice, p))
                 .fold(f64::INFINITY, f64::min)
         };
         // Whether the slit's outer end lies near the open field on the other slice, not deep
@@ -162,13 +150,7 @@ pub fn slits(
                 .is_none_or(|d| d.at(at(&rings, s.from)) <= DEEP_BAY_MM)
         };
         // Whether the slit's middle half lies clear: `clearance > CLEAR`, without measuring.
-        let clear = |s: &Slit| {
-            let (a, b) = (at(&rings, s.from), at(&rings, s.to));
-            [0.25, 0.5, 0.75].iter().all(|&t| {
-                let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-                clear_of(&other_slice, p, CLEAR)
-            })
-        };
+        let clear = |s: &Slit| middle(s).iter().all(|&p| clear_of(&other_slice, p, CLEAR));
         let slit = shortest_clear(&rings, h, step, admissible, clear, clearance, shallow)?;
         made.push((at(&rings, slit.from), at(&rings, slit.to)));
         out.push(slit);
@@ -486,11 +468,7 @@ fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], boxes: &[[f64; 4]], s: 
     };
     walls.iter().zip(boxes).enumerate().any(|(w, (wall, bx))| {
         // A wall whose box lies strictly off the slit's has every edge's box off it too.
-        if bx[2] < a[0].min(b[0])
-            || bx[0] > a[0].max(b[0])
-            || bx[3] < a[1].min(b[1])
-            || bx[1] > a[1].max(b[1])
-        {
+        if boxes_disjoint([bx[0], bx[1]], [bx[2], bx[3]], a, b) {
             return false;
         }
         let n = wall.len();

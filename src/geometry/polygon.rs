@@ -103,6 +103,32 @@ pub fn signed_boundary_distance(pts: &[Point], p: Point) -> f64 {
     }
 }
 
+/// Items `0..items` sorted into `buckets` by a counting sort: `put` is called by `each(i,
+/// put)` with every bucket item `i` belongs to, twice (to count, then to fill). Returns the
+/// start of each bucket (and one past the last) and the items, bucket after bucket.
+fn bucket(
+    buckets: usize,
+    items: usize,
+    each: impl Fn(usize, &mut dyn FnMut(usize)),
+) -> (Vec<usize>, Vec<u32>) {
+    let mut start = vec![0usize; buckets + 1];
+    for i in 0..items {
+        each(i, &mut |k| start[k + 1] += 1);
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut fill = start.clone();
+    let mut out = vec![0u32; start[buckets]];
+    for i in 0..items {
+        each(i, &mut |k| {
+            out[fill[k]] = i as u32;
+            fill[k] += 1;
+        });
+    }
+    (start, out)
+}
+
 /// [`boundary_distance`] to one closed polygon, for many queries: its edges binned on a
 /// uniform grid, searched in square rings round the query's cell until no unsearched edge
 /// can be nearer. The minimum is taken over the same [`point_segment_distance`] values as
@@ -163,60 +189,29 @@ impl<'a> BoundaryIndex<'a> {
             row_edges: Vec::new(),
             bbox: b,
         };
-        // Each edge in every cell its bounding box meets: counted, then filled.
+        // Each edge in every cell its bounding box meets, and in every row of cells it meets.
         let span = |i: usize| {
             let (a, b) = (pts[i], pts[(i + 1) % n]);
             let (c0, r0) = index.clamped(index.cell_of([a[0].min(b[0]), a[1].min(b[1])]));
             let (c1, r1) = index.clamped(index.cell_of([a[0].max(b[0]), a[1].max(b[1])]));
             (c0, r0, c1, r1)
         };
-        let mut count = vec![0usize; width * height + 1];
-        for i in (0..n).filter(|_| finite) {
+        let edges = if finite { n } else { 0 };
+        let (start, cell_edges) = bucket(width * height, edges, |i, put| {
             let (c0, r0, c1, r1) = span(i);
             for r in r0..=r1 {
                 for c in c0..=c1 {
-                    count[r * width + c + 1] += 1;
+                    put(r * width + c);
                 }
             }
-        }
-        for k in 1..count.len() {
-            count[k] += count[k - 1];
-        }
-        let mut fill = count.clone();
-        let mut edges = vec![0u32; count[width * height]];
-        for i in (0..n).filter(|_| finite) {
-            let (c0, r0, c1, r1) = span(i);
-            for r in r0..=r1 {
-                for c in c0..=c1 {
-                    let k = r * width + c;
-                    edges[fill[k]] = i as u32;
-                    fill[k] += 1;
-                }
-            }
-        }
-        let (cell_start, cell_edges) = (count, edges);
-        let mut count = vec![0usize; height + 1];
-        for i in (0..n).filter(|_| finite) {
+        });
+        let (row_start, row_edges) = bucket(height, edges, |i, put| {
             let (_, r0, _, r1) = span(i);
-            for r in r0..=r1 {
-                count[r + 1] += 1;
-            }
-        }
-        for k in 1..count.len() {
-            count[k] += count[k - 1];
-        }
-        let mut fill = count.clone();
-        let mut row_edges = vec![0u32; count[height]];
-        for i in (0..n).filter(|_| finite) {
-            let (_, r0, _, r1) = span(i);
-            for f in &mut fill[r0..=r1] {
-                row_edges[*f] = i as u32;
-                *f += 1;
-            }
-        }
-        index.start = cell_start;
+            (r0..=r1).for_each(put);
+        });
+        index.start = start;
         index.edges = cell_edges;
-        index.row_start = count;
+        index.row_start = row_start;
         index.row_edges = row_edges;
         index
     }
@@ -254,46 +249,54 @@ impl<'a> BoundaryIndex<'a> {
     /// within it: the same edges' distances decide as in the full search, which can only
     /// find farther ones beyond (a slack of 1e-9 mm covers the rounding of a foot point).
     pub fn farther_than(&self, p: Point, margin: f64) -> bool {
-        let n = self.pts.len();
-        let (pc, pr) = self.cell_of(p);
-        let (w, h) = (self.width as i64, self.height as i64);
-        if w == 0 || !(p[0].is_finite() && p[1].is_finite() && margin >= 0.0) {
+        if self.width == 0 || !(p[0].is_finite() && p[1].is_finite() && margin >= 0.0) {
             return self.distance(p) > margin;
         }
         if self.distance_floor(p) > margin {
             return true;
         }
-        let last = (pc.abs().max((w - 1 - pc).abs())).max(pr.abs().max((h - 1 - pr).abs()));
-        let near = |c: i64, r: i64| {
-            if c < 0 || r < 0 || c >= w || r >= h {
-                return false;
-            }
-            let k = r as usize * self.width + c as usize;
-            self.edges[self.start[k]..self.start[k + 1]]
-                .iter()
-                .any(|&e| {
-                    let i = e as usize;
-                    point_segment_distance(p, self.pts[i], self.pts[(i + 1) % n]) <= margin
-                })
-        };
-        for ring in 0..=last {
+        let centre = self.cell_of(p);
+        for ring in 0..=self.last_ring(centre) {
             if (ring - 1) as f64 * self.cell > margin + 1e-9 {
                 break;
             }
-            if ring == 0 {
-                if near(pc, pr) {
-                    return false;
-                }
-                continue;
-            }
-            let (c0, c1, r0, r1) = (pc - ring, pc + ring, pr - ring, pr + ring);
-            if (c0..=c1).any(|c| near(c, r0) || near(c, r1))
-                || (r0 + 1..r1).any(|r| near(c0, r) || near(c1, r))
-            {
+            let near = self.ring_any(centre, ring, |k| {
+                self.cell_edges(k)
+                    .any(|(a, b)| point_segment_distance(p, a, b) <= margin)
+            });
+            if near {
                 return false;
             }
         }
         true
+    }
+
+    /// The edges binned in cell `k`, as their end points.
+    fn cell_edges(&self, k: usize) -> impl Iterator<Item = (Point, Point)> + '_ {
+        let n = self.pts.len();
+        self.edges[self.start[k]..self.start[k + 1]]
+            .iter()
+            .map(move |&e| (self.pts[e as usize], self.pts[(e as usize + 1) % n]))
+    }
+
+    /// The last ring round cell `(c, r)` that still meets the grid.
+    fn last_ring(&self, (c, r): (i64, i64)) -> i64 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        (c.abs().max((w - 1 - c).abs())).max(r.abs().max((h - 1 - r).abs()))
+    }
+
+    /// Whether `f` holds for some grid cell (by flat index) of the square ring `ring` round
+    /// `(c, r)` (ring 0: the cell itself); stops at the first that does.
+    fn ring_any(&self, (pc, pr): (i64, i64), ring: i64, mut f: impl FnMut(usize) -> bool) -> bool {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let mut at = |c: i64, r: i64| {
+            c >= 0 && r >= 0 && c < w && r < h && f(r as usize * self.width + c as usize)
+        };
+        if ring == 0 {
+            return at(pc, pr);
+        }
+        let (c0, c1, r0, r1) = (pc - ring, pc + ring, pr - ring, pr + ring);
+        (c0..=c1).any(|c| at(c, r0) || at(c, r1)) || (r0 + 1..r1).any(|r| at(c0, r) || at(c1, r))
     }
 
     /// A lower bound of [`Self::distance`]: the distance to the polygon's box, less a
@@ -320,47 +323,27 @@ impl<'a> BoundaryIndex<'a> {
 
     /// Distance from `p` to the polygon's boundary: [`boundary_distance`].
     pub fn distance(&self, p: Point) -> f64 {
-        let n = self.pts.len();
-        let (pc, pr) = self.cell_of(p);
-        let (w, h) = (self.width as i64, self.height as i64);
-        // Rings until the square round `p`'s cell covers the grid.
-        let last = (pc.abs().max((w - 1 - pc).abs())).max(pr.abs().max((h - 1 - pr).abs()));
+        let centre = self.cell_of(p);
+        let last = self.last_ring(centre);
         // Far off the grid (or no grid: an empty or non-finite polygon) the rings would be
         // mostly empty: every edge, as [`boundary_distance`] does.
-        if w == 0 || last > 2 * w.max(h) || !(p[0].is_finite() && p[1].is_finite()) {
+        let side = self.width.max(self.height) as i64;
+        if self.width == 0 || last > 2 * side || !(p[0].is_finite() && p[1].is_finite()) {
             return boundary_distance(self.pts, p);
         }
         let mut best = f64::INFINITY;
-        let visit = |c: i64, r: i64, best: &mut f64| {
-            if c < 0 || r < 0 || c >= w || r >= h {
-                return;
-            }
-            let k = r as usize * self.width + c as usize;
-            for &e in &self.edges[self.start[k]..self.start[k + 1]] {
-                let i = e as usize;
-                *best = best.min(point_segment_distance(
-                    p,
-                    self.pts[i],
-                    self.pts[(i + 1) % n],
-                ));
-            }
-        };
-        visit(pc, pr, &mut best);
-        for ring in 1..=last {
+        for ring in 0..=last {
             // An edge not yet visited meets no cell within `ring - 1` of `p`'s cell, so it
             // lies at least `ring - 1` cells from `p`.
-            if best <= (ring - 1) as f64 * self.cell {
+            if ring > 0 && best <= (ring - 1) as f64 * self.cell {
                 break;
             }
-            let (c0, c1, r0, r1) = (pc - ring, pc + ring, pr - ring, pr + ring);
-            for c in c0..=c1 {
-                visit(c, r0, &mut best);
-                visit(c, r1, &mut best);
-            }
-            for r in r0 + 1..r1 {
-                visit(c0, r, &mut best);
-                visit(c1, r, &mut best);
-            }
+            self.ring_any(centre, ring, |k| {
+                for (a, b) in self.cell_edges(k) {
+                    best = best.min(point_segment_distance(p, a, b));
+                }
+                false
+            });
         }
         best
     }
