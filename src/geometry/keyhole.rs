@@ -44,7 +44,7 @@ use std::collections::BinaryHeap;
 
 use super::distance_map::{bbox_of, inside_mask, neighbours, Grid};
 use super::polygon::{
-    bbox, boxes_disjoint, clear_of, dist, least_signed_distance, perimeter, segments_intersect,
+    boxes_disjoint, clear_of, dist, least_signed_distance, perimeter, segments_intersect,
     BoundaryIndex, Point,
 };
 
@@ -102,14 +102,13 @@ pub fn slits(
     let other_slice: Vec<BoundaryIndex> =
         outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
     // Every boundary a slit must keep off: the contour, the holes (ring `k + 1` is the
-    // `k`-th, so a slit's feet index these too) and the other holes; with their boxes.
-    let walls: Vec<&[Point]> = std::iter::once(contour)
+    // `k`-th, so a slit's feet index these too) and the other holes. Every admissible slit
+    // also asks whether its midpoint lies in the contour, in no hole.
+    let walls: Vec<BoundaryIndex> = std::iter::once(contour)
         .chain(holes.iter().copied())
         .chain(other_holes.iter().copied())
+        .map(BoundaryIndex::new)
         .collect();
-    let wall_boxes: Vec<[f64; 4]> = walls.iter().map(|w| bbox(w)).collect();
-    // And every admissible one asks whether its midpoint lies in the contour, in no hole.
-    let walls_index: Vec<BoundaryIndex> = walls.iter().map(|w| BoundaryIndex::new(w)).collect();
     for &hole in holes {
         if hole.len() < 3 {
             return None;
@@ -119,10 +118,10 @@ pub fn slits(
         let admissible = |s: &Slit| {
             let (a, b) = (at(&rings, s.from), at(&rings, s.to));
             let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-            walls_index[0].contains(mid)
-                && !walls_index[1..].iter().any(|w| w.contains(mid))
+            walls[0].contains(mid)
+                && !walls[1..].iter().any(|w| w.contains(mid))
                 && !other_slice.iter().any(|o| o.contains(mid))
-                && !crosses_walls(a, b, &walls, &wall_boxes, s)
+                && !crosses_walls(a, b, &walls, s)
                 && !made.iter().any(|&(p, q)| segments_intersect(a, b, p, q))
         };
         // The slit's middle half: its quarter, half and three-quarter points.
@@ -460,17 +459,19 @@ impl BayDepth {
 
 /// Whether `a`–`b` meets an edge of `walls` other than the edges at its own two feet (the
 /// first walls are the rings that the feet of `s` index).
-fn crosses_walls(a: Point, b: Point, walls: &[&[Point]], boxes: &[[f64; 4]], s: &Slit) -> bool {
+fn crosses_walls(a: Point, b: Point, walls: &[BoundaryIndex], s: &Slit) -> bool {
     // The edges a foot lies on: its own edge, and the one before when it is a vertex.
     let own = |w: usize, i: usize, f: Foot| {
-        let n = walls[w].len();
+        let n = walls[w].points().len();
         f.ring == w && (i == f.edge || (f.t == 0.0 && (i + 1) % n == f.edge))
     };
-    walls.iter().zip(boxes).enumerate().any(|(w, (wall, bx))| {
+    walls.iter().enumerate().any(|(w, index)| {
         // A wall whose box lies strictly off the slit's has every edge's box off it too.
+        let bx = index.bbox();
         if boxes_disjoint([bx[0], bx[1]], [bx[2], bx[3]], a, b) {
             return false;
         }
+        let wall = index.points();
         let n = wall.len();
         (0..n).any(|i| {
             if own(w, i, s.from) || own(w, i, s.to) {

@@ -216,6 +216,16 @@ impl<'a> BoundaryIndex<'a> {
         index
     }
 
+    /// The polygon indexed.
+    pub fn points(&self) -> &'a [Point] {
+        self.pts
+    }
+
+    /// The polygon's bounding box: [`bbox`] of [`Self::points`].
+    pub fn bbox(&self) -> [f64; 4] {
+        self.bbox
+    }
+
     /// [`contains`], asking only the edges of the row of cells `p` lies in: an edge that a
     /// horizontal line through `p` crosses has `p`'s ordinate within its own, so its box
     /// meets that row (`floor` is monotonic). The same crossing rule on the same edges, so

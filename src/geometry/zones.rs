@@ -63,6 +63,16 @@ pub(crate) struct Window {
 }
 
 impl Window {
+    /// The least window holding `a` (if any) and `b`.
+    fn cover(a: Option<Window>, b: Window) -> Window {
+        a.map_or(b, |a| Window {
+            r0: a.r0.min(b.r0),
+            r1: a.r1.max(b.r1),
+            c0: a.c0.min(b.c0),
+            c1: a.c1.max(b.c1),
+        })
+    }
+
     /// The bounding window of the samples `k` with `inside(k)`, per label `label(k)` (labels
     /// `0..count`, others ignored), grown by two samples and clamped to the raster; `None`
     /// for a label with no sample. One pass over the raster for all labels, in bands of rows
@@ -80,14 +90,9 @@ impl Window {
         let (w, h) = (grid.width, grid.height);
         let union = |mut a: Vec<Option<Window>>, b: Vec<Option<Window>>| {
             for (x, y) in a.iter_mut().zip(b) {
-                *x = match (*x, y) {
-                    (Some(p), Some(q)) => Some(Window {
-                        r0: p.r0.min(q.r0),
-                        r1: p.r1.max(q.r1),
-                        c0: p.c0.min(q.c0),
-                        c1: p.c1.max(q.c1),
-                    }),
-                    (p, q) => p.or(q),
+                *x = match y {
+                    Some(q) => Some(Window::cover(*x, q)),
+                    None => *x,
                 };
             }
             a
@@ -104,16 +109,13 @@ impl Window {
                         if l >= count || !inside(k) {
                             continue;
                         }
-                        let b = acc[l].get_or_insert(Window {
+                        let sample = Window {
                             r0: r,
                             r1: r,
                             c0: c,
                             c1: c,
-                        });
-                        b.r0 = b.r0.min(r);
-                        b.r1 = b.r1.max(r);
-                        b.c0 = b.c0.min(c);
-                        b.c1 = b.c1.max(c);
+                        };
+                        acc[l] = Some(Window::cover(acc[l], sample));
                     }
                     acc
                 },
