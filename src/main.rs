@@ -318,6 +318,11 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let result = result?;
 
     let surfaces = result.written.surfaces;
+    // A folding mesh first: the summary shows the first few warnings only.
+    let warnings: Vec<String> = bskin::io::report::fold_warning(&surfaces)
+        .into_iter()
+        .chain(ctl.warnings())
+        .collect();
     let input_points_total: usize = surfaces.iter().map(|s| s.input_points).sum();
     let control_points_total: usize = surfaces
         .iter()
@@ -368,6 +373,8 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
                 chordal_mm: config.mesh_chordal * config.tolerance_mm,
                 triangles: surfaces.iter().map(|s| s.triangles).sum(),
                 seal_triangles: surfaces.iter().map(|s| s.seal_triangles).sum(),
+                folded_surfaces: surfaces.iter().filter(|s| s.folded_rows > 0).count(),
+                folded_rows: surfaces.iter().map(|s| s.folded_rows).sum(),
             }
         }),
         surfaces,
@@ -377,7 +384,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
             stages: result.stages,
         },
         peak_rss_mb: bskin::io::report::peak_rss_mb(),
-        warnings: ctl.warnings(),
+        warnings,
         notes: ctl.notes(),
     };
     let report_path = s8_write::write_report(out, &report)?;

@@ -21,6 +21,8 @@
 
 use crate::bspline::surface::SkinnedSurface;
 use crate::bspline::vecops::{add, dot, norm, scale, sub};
+use crate::geometry::polygon::{crosses_itself, Point};
+use crate::section::SliceFrame;
 
 pub type Triangle = [[f64; 3]; 3];
 type P3 = [f64; 3];
@@ -44,15 +46,44 @@ pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64
     tris
 }
 
+/// The interior rows of a tessellation (iso-curves v = const, as meshed) and how many of
+/// them cross themselves.
+///
+/// A surface's curves lie in parallel planes and its height along their normal is monotone in
+/// v (see [`crate::bspline::skinning`]), so each plane between its end curves meets it in one
+/// iso-curve, which lies in that plane: the surface passes through itself exactly where an
+/// iso-curve crosses itself. Counting the mesh's rows that do so finds the folds a mesh
+/// checker sees (MeshLab's faces crossing their own surface) wherever a row passes through
+/// them, at the cost of one sweep per row. Crossings between different surfaces are not
+/// counted; nor is a surface whose first row has no area to take a plane from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Folds {
+    pub rows: usize,
+    pub folded: usize,
+}
+
+impl Folds {
+    fn count(&mut self, frame: &Option<SliceFrame>, row: &[P3]) {
+        self.rows += 1;
+        if let Some(f) = frame {
+            let flat: Vec<Point> = row.iter().map(|&p| f.to_plane(p)).collect();
+            if crosses_itself(&flat) {
+                self.folded += 1;
+            }
+        }
+    }
+}
+
 /// [`tessellate`], handing each triangle to `emit` as it is made, row by row: only two rows
-/// of samples are held, so a long surface streams into a mesh file in bounded memory.
+/// of samples are held, so a long surface streams into a mesh file in bounded memory. Returns
+/// how many of the rows cross themselves ([`Folds`]).
 pub fn tessellate_each(
     s: &SkinnedSurface,
     bottom: &[P3],
     top: &[P3],
     chordal_mm: f64,
     mut emit: impl FnMut(Triangle),
-) {
+) -> Folds {
     let (mut us, vs) = sample_params(s, chordal_mm);
     let vb = s.v_bar();
     let (v0, v1) = (vb[0], vb[1]);
@@ -110,9 +141,13 @@ pub fn tessellate_each(
         }
     };
     let mut lower = row(vs[1]);
+    let frame = SliceFrame::of_loop(&lower);
+    let mut folds = Folds::default();
+    folds.count(&frame, &lower);
     zip_end(&us, &bottom, &lower, false, &mut push);
     for &v in &vs[2..last] {
         let upper = row(v);
+        folds.count(&frame, &upper);
         for i in 0..nu {
             let i1 = (i + 1) % nu;
             let (a, b, c, d) = (lower[i], lower[i1], upper[i1], upper[i]);
@@ -122,6 +157,7 @@ pub fn tessellate_each(
         lower = upper;
     }
     zip_end(&us, &top, &lower, true, &mut push);
+    folds
 }
 
 /// 1 at s = 0 falling to 0 at s = 1 (and beyond) with zero slope at both: a smoothstep.

@@ -308,7 +308,7 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["coordinates"], "RAS");
-    assert_eq!(report["version"], 4);
+    assert_eq!(report["version"], 5);
     assert!(report["notes"].is_array());
     let files: Vec<&str> = report["files"]
         .as_array()
@@ -337,6 +337,9 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     };
     assert_eq!(mesh["triangles"].as_u64(), Some(sum("triangles")));
     assert_eq!(mesh["seal_triangles"].as_u64(), Some(sum("seal_triangles")));
+    assert_eq!(mesh["folded_rows"].as_u64(), Some(sum("folded_rows")));
+    assert_eq!(mesh["folded_surfaces"], 0);
+    assert!(sum("mesh_rows") > 0);
     assert!(sum("triangles") > sum("seal_triangles"));
     assert!(!out.join("mesh.stl").exists());
     let spacing = &report["input"]["slice_spacing_mm"];

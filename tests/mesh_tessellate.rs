@@ -1,13 +1,13 @@
 //! `mesh::tessellate` and `mesh::seal` on their own: the triangles stay within the chordal
 //! tolerance of the surface, the end loops are in the mesh exactly and each of their edges is
-//! the mesh's only open edge there (used once, in the direction the neighbour needs), and the
-//! seal closes exactly what a tiling leaves open.
+//! the mesh's only open edge there (used once, in the direction the neighbour needs), the
+//! seal closes exactly what a tiling leaves open, and the rows that fold are counted.
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use bskin::bspline::{fit_common, skin, FitOptions};
-use bskin::mesh::{seal, tessellate, Triangle};
+use bskin::mesh::{seal, tessellate, tessellate_each, Triangle};
 
 type P3 = [f64; 3];
 
@@ -171,4 +171,46 @@ fn seal_closes_a_tiling_gap_and_nothing_else() {
         .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
         .sum();
     assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
+}
+
+/// A peanut (lobes 19 mm, waist 1 mm from its centre) at z = 0 and z = 4, the second loop
+/// listed from `shift` of its 200 points later. A quarter turn joins each lobe to the waist,
+/// and the rows half-way cross themselves (the blends of the loops' points of equal
+/// chord-length fraction do, as a 2-D check of the same loops shows); from the same point or
+/// an eighth of a turn later, they do not.
+fn peanuts(shift: usize) -> (Vec<Vec<P3>>, bskin::bspline::SkinnedSurface) {
+    let n = 200;
+    let at = |j: usize, z: f64| -> P3 {
+        let t = 2.0 * PI * j as f64 / n as f64;
+        let r = 10.0 + 9.0 * (2.0 * t).cos();
+        [r * t.cos(), r * t.sin(), z]
+    };
+    let curves: Vec<Vec<P3>> = vec![
+        (0..n).map(|j| at(j, 0.0)).collect(),
+        (0..n).map(|j| at((j + shift) % n, 4.0)).collect(),
+    ];
+    let fit = fit_common(&curves, &FitOptions::new(0.05)).unwrap();
+    (curves, skin(&fit.curves).unwrap())
+}
+
+#[test]
+fn folded_rows_are_the_rows_that_cross_themselves() {
+    for (shift, folds) in [(0, false), (25, false), (50, true)] {
+        let (curves, s) = peanuts(shift);
+        let (bottom, top) = (&curves[0], &curves[1]);
+        let mut count = 0;
+        let f = tessellate_each(&s, bottom, top, 0.02, |_| count += 1);
+        assert!(f.rows > 0 && count > 0, "{f:?}");
+        if folds {
+            // The middle rows fold; the rows next to either loop are still peanuts.
+            assert!(f.folded > 0 && f.folded < f.rows, "{f:?}");
+        } else {
+            assert_eq!(f.folded, 0, "{f:?}");
+        }
+    }
+    // The vase's rows are circles.
+    let (curves, s) = vase();
+    let f = tessellate_each(&s, &curves[0], &curves[4], 0.02, |_| {});
+    assert_eq!(f.folded, 0, "{f:?}");
+    assert!(f.rows > 0);
 }

@@ -135,6 +135,17 @@ fn check_with(shape: &str, volume_tol: f64, extra: &[&str]) -> (f64, serde_json:
     );
     assert!(r.volume > 0.0, "{shape}: normals point inwards");
     assert!(rel.abs() < volume_tol, "{shape}: volume off by {rel:+.4}");
+    // No surface folds through itself (MeshLab agrees in CI), and the report says so.
+    assert_eq!(
+        report["mesh"]["folded_rows"], 0,
+        "{shape}: {}",
+        report["warnings"]
+    );
+    assert!(report["surfaces"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|s| s["folded_rows"] == 0 && s["mesh_rows"].as_u64() > Some(0)));
     (rel, report)
 }
 

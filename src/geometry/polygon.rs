@@ -462,6 +462,21 @@ pub fn is_weakly_simple(pts: &[Point]) -> bool {
     })
 }
 
+/// Whether two non-adjacent edges of the closed polygon cross properly: each one's ends
+/// strictly on either side of the other's line. Touching does not count (a slit's two sides,
+/// a vertex on an edge), so a keyhole loop does not cross itself; a figure eight does.
+pub fn crosses_itself(pts: &[Point]) -> bool {
+    let n = pts.len();
+    n >= 4
+        && !no_edges_meeting(pts, |i, j, (a, b), (c, d)| {
+            let adjacent = (i + 1) % n == j || (j + 1) % n == i;
+            !adjacent
+                && !boxes_disjoint(a, b, c, d)
+                && orient(a, b, c) * orient(a, b, d) < 0.0
+                && orient(c, d, a) * orient(c, d, b) < 0.0
+        })
+}
+
 /// Whether `meet(i, j, edge i, edge j)` is false for every pair of edges whose x-ranges
 /// overlap: a sweep over edges sorted by their smallest x, so typical contours cost
 /// O(n log n) rather than O(n²).
@@ -560,6 +575,28 @@ pub(crate) fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn crossing_itself_is_a_proper_crossing_not_a_touch() {
+        let square = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]];
+        assert!(!crosses_itself(&square));
+        let eight = [[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0]];
+        assert!(crosses_itself(&eight));
+        // A slit out and back: its two sides touch along their length but do not cross.
+        let keyhole = [
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 4.0],
+            [2.0, 4.0],
+            [2.0, 2.0],
+            [2.0, 4.0],
+            [0.0, 4.0],
+        ];
+        assert!(!crosses_itself(&keyhole));
+        // A vertex (2, 0) lying inside a non-adjacent edge touches it.
+        let touching = [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [2.0, 0.0], [0.0, 4.0]];
+        assert!(!crosses_itself(&touching));
+    }
 
     #[test]
     fn a_slit_is_weakly_simple_a_crossing_is_not() {

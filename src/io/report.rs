@@ -1,4 +1,4 @@
-//! `report.json`, version 4: what a `bskin run` read, made and measured. Documented field by
+//! `report.json`, version 5: what a `bskin run` read, made and measured. Documented field by
 //! field in the README. Floating-point values are as computed (shortest round-trip form), so
 //! the same input gives the same bytes, except for the timing and memory fields (and so
 //! report.json's own size).
@@ -14,7 +14,9 @@ pub const FORMAT: &str = "bskin-report";
 /// `coordinates` follows `--ras`. 3: `mesh` (chordal tolerance, triangle totals) and per
 /// surface `seal_triangles` added; `files` lists report.json too. 4: `notes` added (what needs
 /// no action, such as a split zone bridges joined whole, which version 3 listed as warnings).
-pub const VERSION: u32 = 4;
+/// 5: per surface `mesh_rows` and `folded_rows`, and `mesh.folded_surfaces` and
+/// `mesh.folded_rows`: where the mesh folds through itself.
+pub const VERSION: u32 = 5;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -103,6 +105,11 @@ pub struct SurfaceReport {
     pub triangles: usize,
     /// Flat triangles closing slivers where its end loops do not tile their plane.
     pub seal_triangles: usize,
+    /// Interior rows of its mesh (iso-curves between its end loops, one plane each), and how
+    /// many of them cross themselves: where the surface folds through itself
+    /// ([`crate::mesh::Folds`]). 0 and 0 when no mesh file was written.
+    pub mesh_rows: usize,
+    pub folded_rows: usize,
 }
 
 /// How the mesh files were tessellated; absent when no mesh file was asked for.
@@ -115,6 +122,10 @@ pub struct MeshReport {
     pub chordal_mm: f64,
     pub triangles: usize,
     pub seal_triangles: usize,
+    /// Surfaces with a folded row, and their folded rows in all (per surface:
+    /// `folded_rows`). Crossings between different surfaces are not counted.
+    pub folded_surfaces: usize,
+    pub folded_rows: usize,
 }
 
 #[derive(Serialize, Debug, Clone)]
@@ -225,10 +236,83 @@ fn human_bytes(b: u64) -> String {
     }
 }
 
+/// Surfaces named in [`fold_warning`], most folded rows first.
+const FOLD_WARNING_SURFACES: usize = 5;
+
+/// The warning for a mesh that folds through itself: how many surfaces and rows, and the
+/// surfaces with the most folded rows. `None` when no row of any surface crosses itself.
+pub fn fold_warning(surfaces: &[SurfaceReport]) -> Option<String> {
+    let mut folded: Vec<&SurfaceReport> = surfaces.iter().filter(|s| s.folded_rows > 0).collect();
+    if folded.is_empty() {
+        return None;
+    }
+    // Stable: ties keep surface order, so the text is the same on every run.
+    folded.sort_by_key(|s| std::cmp::Reverse(s.folded_rows));
+    let rows: usize = surfaces.iter().map(|s| s.mesh_rows).sum();
+    let bad: usize = folded.iter().map(|s| s.folded_rows).sum();
+    let worst: Vec<String> = folded
+        .iter()
+        .take(FOLD_WARNING_SURFACES)
+        .map(|s| {
+            format!(
+                "surface {} (slices {}–{}, {} of {} rows)",
+                s.id, s.slices[0], s.slices[1], s.folded_rows, s.mesh_rows
+            )
+        })
+        .collect();
+    Some(format!(
+        "mesh: {} of {} surfaces fold through themselves ({bad} of {rows} mesh rows cross \
+         themselves; each surface's `folded_rows`); most: {}",
+        folded.len(),
+        surfaces.len(),
+        worst.join(", ")
+    ))
+}
+
 /// Peak resident set size of this process so far (Linux: VmHWM), in MB.
 pub fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb / 1024.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn surface(id: usize, rows: usize, folded: usize) -> SurfaceReport {
+        SurfaceReport {
+            id,
+            kind: "outer",
+            control_points: [8, 4],
+            knots: [15, 8],
+            curves: 2,
+            slices: [id, id + 1],
+            input_points: 100,
+            certified_points: 100,
+            max_error_mm: 0.1,
+            mean_error_mm: 0.05,
+            rms_error_mm: 0.06,
+            curve_fit_max_mm: 0.1,
+            tolerance_mm: 0.5,
+            tolerance_met: true,
+            triangles: 10,
+            seal_triangles: 0,
+            mesh_rows: rows,
+            folded_rows: folded,
+        }
+    }
+
+    #[test]
+    fn fold_warning_names_the_most_folded_surfaces_or_nothing() {
+        assert_eq!(fold_warning(&[surface(0, 10, 0), surface(1, 12, 0)]), None);
+        let w = fold_warning(&[surface(0, 10, 2), surface(1, 12, 0), surface(2, 20, 7)]).unwrap();
+        assert_eq!(
+            w,
+            "mesh: 2 of 3 surfaces fold through themselves (9 of 42 mesh rows cross themselves; \
+             each surface's `folded_rows`); most: surface 2 (slices 2–3, 7 of 20 rows), \
+             surface 0 (slices 0–1, 2 of 10 rows)"
+        );
+    }
 }

@@ -80,6 +80,8 @@ pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
         tolerance_met: s.tolerance_met,
         triangles: 0,
         seal_triangles: 0,
+        mesh_rows: 0,
+        folded_rows: 0,
     }
 }
 
@@ -138,7 +140,7 @@ pub fn run(
                     chunk.clear();
                 }
             };
-            tessellate_each(&surface, &map(bottom), &map(top), chordal_mm, &mut take);
+            let folds = tessellate_each(&surface, &map(bottom), &map(top), chordal_mm, &mut take);
             for t in &s.region.seal {
                 take(t.map(|p| system.from_lps(p)));
             }
@@ -149,6 +151,8 @@ pub fn run(
             meshes.write_indexed(report.id, &all)?;
             report.triangles = count;
             report.seal_triangles = s.region.seal.len();
+            report.mesh_rows = folds.rows;
+            report.folded_rows = folds.folded;
         }
         written.surfaces.push(report);
         if keep {
