@@ -6,7 +6,7 @@
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
-use bskin::bspline::{fit_common, BsplineError, FitOptions};
+use bskin::bspline::{fit_common, fit_common_warped, BsplineError, FitOptions};
 use helpers::{circle, dist, lift, star};
 use proptest::prelude::*;
 
@@ -157,4 +157,41 @@ fn polygon_distance(poly: &[[f64; 3]], p: &[f64; 3]) -> f64 {
             dist(&q, p)
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// A warp moves where a contour's points sit on the common parameter and nothing else: the
+/// curves still meet the tolerance, an identity table changes nothing, and the warped
+/// contour's point at chord fraction f(w) lands at the common parameter w.
+#[test]
+fn warped_parameters_move_points_along_the_curve_and_keep_the_tolerance() {
+    let tol = 0.05;
+    let opts = FitOptions::new(tol);
+    let contours = vec![lift(&circle(300, 20.0), 0.0), lift(&circle(300, 21.0), 2.0)];
+    let table =
+        |f: &dyn Fn(f64) -> f64| -> Vec<f64> { (0..=1024).map(|j| f(j as f64 / 1024.0)).collect() };
+    let plain = fit_common(&contours, &opts).unwrap();
+    let same = fit_common_warped(&contours, &[None, Some(table(&|w| w))], &opts).unwrap();
+    assert_eq!(same.knots.n_control(), plain.knots.n_control());
+    for (a, b) in plain.curves.iter().zip(&same.curves) {
+        for (p, q) in a.control().iter().zip(b.control()) {
+            assert!(dist(p, q) < 1e-9, "{p:?} {q:?}");
+        }
+    }
+    // Own fraction at common parameter w: slower over the first half, faster over the second.
+    let f = |w: f64| w + 0.05 * (std::f64::consts::TAU * w).sin();
+    let warped = fit_common_warped(&contours, &[None, Some(table(&f))], &opts).unwrap();
+    assert!(warped.met, "{:?}", warped.max_errors);
+    assert!(warped.max_errors.iter().all(|&e| e <= tol));
+    let n = warped.knots.n_control() as f64;
+    let on_circle = |frac: f64| {
+        let a = std::f64::consts::TAU * frac;
+        [21.0 * a.cos(), 21.0 * a.sin(), 2.0]
+    };
+    for w in [0.1, 0.25, 0.4, 0.6, 0.75, 0.9] {
+        let at = warped.curves[1].eval(w * n);
+        assert!(dist(&at, &on_circle(f(w))) < 0.2, "w {w}: {at:?}");
+        // Chord length would put it at fraction w, 21 · 2π · 0.05 · |sin 2πw| away.
+        let plain_at = plain.curves[1].eval(w * plain.knots.n_control() as f64);
+        assert!(dist(&plain_at, &on_circle(w)) < 0.2, "w {w}: {plain_at:?}");
+    }
 }

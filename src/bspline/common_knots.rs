@@ -68,6 +68,8 @@ enum Item<const D: usize> {
     Contour {
         pts: Vec<[f64; D]>,
         interp: Option<(ClosedCurve<D>, Vec<f64>)>,
+        /// Chord-length fraction at common parameters (see [`fit_common_warped`]).
+        warp: Option<Vec<f64>>,
     },
 }
 
@@ -83,6 +85,19 @@ enum Trial<const D: usize> {
 /// Algorithm 2; see the module doc.
 pub fn fit_common<const D: usize>(
     contours: &[Vec<[f64; D]>],
+    opts: &FitOptions,
+) -> Result<CommonFit<D>, BsplineError> {
+    fit_common_warped(contours, &[], opts)
+}
+
+/// [`fit_common`] with the parameters of some contours warped off chord length: `warps[i]`,
+/// when given, is contour i's chord-length fraction at the common parameters j / (len − 1)
+/// (increasing from 0 to 1; see `geometry::alignment::chord_warps`), and each of its
+/// points gets the parameter at which the table reaches the point's own fraction. Contours
+/// past the end of `warps`, or with `None`, keep chord length.
+pub fn fit_common_warped<const D: usize>(
+    contours: &[Vec<[f64; D]>],
+    warps: &[Option<Vec<f64>>],
     opts: &FitOptions,
 ) -> Result<CommonFit<D>, BsplineError> {
     opts.validate()?;
@@ -109,7 +124,12 @@ pub fn fit_common<const D: usize>(
             items.push(Item::Cap(cleaned[0]));
         } else {
             let pts = prepare_contour(&cleaned).map_err(|e| ctx(i, e))?;
-            items.push(Item::Contour { pts, interp: None });
+            let warp = warps.get(i).cloned().flatten().filter(|t| t.len() >= 2);
+            items.push(Item::Contour {
+                pts,
+                interp: None,
+                warp,
+            });
         }
     }
     let sizes: Vec<(usize, usize)> = items
@@ -215,6 +235,26 @@ pub fn fit_common<const D: usize>(
     Ok(out)
 }
 
+/// Parameters in [0, n_control) of the closed polygon's points where the warp `table` (chord
+/// fraction at common parameters j / (len − 1), increasing) reaches each point's chord
+/// fraction: linear between the table's entries.
+fn warped_params<const D: usize>(points: &[[f64; D]], n_control: usize, table: &[f64]) -> Vec<f64> {
+    let last = table.len() - 1;
+    chord_params(points, 1)
+        .into_iter()
+        .map(|f| {
+            let j = table.partition_point(|&x| x <= f).clamp(1, last);
+            let (a, b) = (table[j - 1], table[j]);
+            let t = if b > a {
+                ((f - a) / (b - a)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            n_control as f64 * ((j - 1) as f64 + t) / last as f64
+        })
+        .collect()
+}
+
 /// Fitting data per control point a contour of a region gets at least (see [`trial`]).
 const OVERSAMPLE: usize = 2;
 
@@ -235,7 +275,7 @@ fn trial<const D: usize>(
     for item in items.iter_mut() {
         match item {
             Item::Cap(_) => data.push(None),
-            Item::Contour { pts, interp } => {
+            Item::Contour { pts, interp, warp } => {
                 // Fewer than 2N points: resample D(t) up to 2N, so the fit on the averaged
                 // (not the contour's own) knots is least squares with data in every span;
                 // resampling to exactly N made it an interpolation whose sites could sit
@@ -251,7 +291,10 @@ fn trial<const D: usize>(
                         None => return Err(BsplineError::Singular("no interpolant".into())),
                     }
                 };
-                let u = chord_params(&combined, n1);
+                let u = match warp {
+                    Some(table) => warped_params(&combined, n1, table),
+                    None => chord_params(&combined, n1),
+                };
                 let own = if combined.len() == n1 {
                     knots_interpolation(&u, n1)?
                 } else {

@@ -2,7 +2,9 @@
 //! starts, so that the surface joins corresponding points of consecutive curves.
 //!
 //! In: the region's curves bottom to top, each a closed loop of 3-D points or a single point.
-//! Out: the index at which each curve should start ([`align_starts`]).
+//! Out: the index at which each curve should start ([`align_starts`]), and, where chord
+//! length joins consecutive loops across a bay or a wall, a warp of the parameters along
+//! them ([`chord_warps`], on the loops in their plane, started as aligned).
 //!
 //! The paper's baseline ([`baseline`]): for every candidate start on the first loop, take the
 //! nearest point of the next curve, and so on; the shortest chain wins. Its nearest point is
@@ -15,6 +17,15 @@
 //! join is closest: the cyclic shift minimising the mean distance between the points of equal
 //! arc-length fraction. The first loop keeps the start of the shortest baseline. Ties go to
 //! the lowest index, so the result is deterministic.
+//!
+//! A start fixes the join at one point only; along the loop, equal fractions drift apart
+//! wherever one loop is longer than the next (wiggles, a bump, a lobe). [`chord_warps`]
+//! measures that drift by nearest points and, where it folds the surface, bends the
+//! parameters of the next loop by a smooth map that takes it out (Algorithm 2 then fits the
+//! loop's points at those parameters: `bspline::fit_common_warped`).
+
+use super::polygon::{proper_crossings, Point};
+
 /// Upper bound on the start candidates tried on the first loop: evenly spaced over it, so a
 /// 5,000-point contour costs no more than a 256-point one. The greedy chain from each
 /// candidate still visits every curve's every point.
@@ -171,6 +182,233 @@ impl<'a> Loop<'a> {
     }
 }
 
+/// Samples per loop on which [`chord_warps`] matches consecutive loops.
+const WARP_SAMPLES: usize = 512;
+/// Harmonics of a warp: the drift it corrects is the slow sum of small differences in
+/// length along the loops, not any one feature.
+const WARP_HARMONICS: usize = 3;
+/// A warp may speed a loop up or slow it down at most this much against chord length.
+const WARP_MAX_SPEED: f64 = 2.0;
+/// Entries of a warp table (fractions at common parameters j / WARP_TABLE, j = 0..=it).
+pub const WARP_TABLE: usize = 1024;
+/// Blend heights at which a warp must cross itself less than chord length does.
+const WARP_BLENDS: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// Per loop of a region (bottom to top, 2-D in their common plane; `None` for a cap point),
+/// where the surface should meet it: `Some(table)` gives the loop's own chord-length
+/// fraction at the common parameters j / [`WARP_TABLE`] (increasing, from 0 to 1), `None`
+/// means chord length itself. Every loop is `None` unless some warp helps.
+///
+/// The skinned surface joins the points of consecutive loops at equal parameters, and with
+/// chord length (paper Eq. 3) those are points at equal fractions of each loop's length.
+/// Where one loop has wiggles, a bump or a stretch of wall the next lacks, the fractions
+/// drift apart along the rest of the loop, up to several millimetres, and the surface
+/// between them folds where the drift carries a join across a bay or a thin wall (the
+/// skull's surface 110: two loops within 1 mm of each other almost everywhere, joined up to
+/// 2.6 % of 500 mm apart). Each loop's nearest points on the next give the drift; a smooth
+/// map (the identity plus [`WARP_HARMONICS`] harmonics vanishing at the start, fitted with
+/// Huber weights so a lobe that one loop lacks does not pull it) takes it out. A warp is
+/// kept only where it stays within [`WARP_MAX_SPEED`] of chord length both ways and the
+/// blends of the two loops cross themselves less than without it; otherwise the next loop
+/// keeps its chord-length relation to this one.
+pub fn chord_warps(loops: &[Option<Vec<Point>>]) -> Vec<Option<Vec<f64>>> {
+    let n = loops.len();
+    let identity: Vec<f64> = (0..=WARP_TABLE)
+        .map(|j| j as f64 / WARP_TABLE as f64)
+        .collect();
+    let mut tables: Vec<Vec<f64>> = vec![identity.clone(); n];
+    let mut any = false;
+    for k in 1..n {
+        let (Some(a), Some(b)) = (&loops[k - 1], &loops[k]) else {
+            continue;
+        };
+        if a.len() < 3 || b.len() < 3 {
+            tables[k] = tables[k - 1].clone();
+            continue;
+        }
+        match warp_between(a, b) {
+            Some(phi) => {
+                tables[k] = tables[k - 1].iter().map(|&s| phi.at(s)).collect();
+                any = true;
+            }
+            None => tables[k] = tables[k - 1].clone(),
+        }
+    }
+    if !any {
+        return vec![None; n];
+    }
+    tables
+        .into_iter()
+        .zip(loops)
+        .map(|(t, l)| l.as_ref().map(|_| t))
+        .collect()
+}
+
+/// φ(s) = s + Σ_m a_m (cos 2πms − 1) + b_m sin 2πms: loop `b`'s fraction matching loop `a`'s
+/// fraction s.
+struct Warp {
+    coef: Vec<(f64, f64)>,
+}
+
+impl Warp {
+    fn offset(&self, s: f64) -> f64 {
+        let tau = std::f64::consts::TAU;
+        self.coef
+            .iter()
+            .enumerate()
+            .map(|(m, &(a, b))| {
+                let x = tau * (m + 1) as f64 * s;
+                a * (x.cos() - 1.0) + b * x.sin()
+            })
+            .sum()
+    }
+
+    fn at(&self, s: f64) -> f64 {
+        (s + self.offset(s)).clamp(0.0, 1.0)
+    }
+
+    fn speed(&self, s: f64) -> f64 {
+        let tau = std::f64::consts::TAU;
+        1.0 + self
+            .coef
+            .iter()
+            .enumerate()
+            .map(|(m, &(a, b))| {
+                let w = tau * (m + 1) as f64;
+                let x = w * s;
+                w * (b * x.cos() - a * x.sin())
+            })
+            .sum::<f64>()
+    }
+}
+
+/// The warp from loop `a` to loop `b` (see [`chord_warps`]), if it is kept.
+fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
+    let n = WARP_SAMPLES;
+    let (sa, sb) = (fraction_samples(a, n), fraction_samples(b, n));
+    // Drift: the fraction of b's nearest sample minus a's own, wrapped to (−½, ½].
+    let drift: Vec<f64> = sa
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let j = (0..n)
+                .min_by(|&x, &y| d2p(*p, sb[x]).total_cmp(&d2p(*p, sb[y])))
+                .unwrap_or(i);
+            let d = (j as f64 - i as f64) / n as f64;
+            d - d.round()
+        })
+        .collect();
+    let warp = fit_warp(&drift)?;
+    let speeds_ok = (0..n).all(|i| {
+        let v = warp.speed(i as f64 / n as f64);
+        (1.0 / WARP_MAX_SPEED..=WARP_MAX_SPEED).contains(&v)
+    });
+    if !speeds_ok {
+        return None;
+    }
+    // φ is increasing (its speed is positive), so its samples are in order along b.
+    let warped = at_fractions(b, (0..n).map(|i| warp.at(i as f64 / n as f64)));
+    let crossings = |other: &[Point]| -> usize {
+        WARP_BLENDS
+            .iter()
+            .map(|&t| {
+                let blend: Vec<Point> = sa
+                    .iter()
+                    .zip(other)
+                    .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
+                    .collect();
+                proper_crossings(&blend, usize::MAX)
+            })
+            .sum()
+    };
+    let plain = crossings(&sb);
+    (plain > 0 && crossings(&warped) < plain).then_some(warp)
+}
+
+/// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
+/// sampled at s = i / n.
+fn fit_warp(drift: &[f64]) -> Option<Warp> {
+    let n = drift.len();
+    let m = 2 * WARP_HARMONICS;
+    let tau = std::f64::consts::TAU;
+    let row = |s: f64| -> Vec<f64> {
+        (1..=WARP_HARMONICS)
+            .flat_map(|h| {
+                let x = tau * h as f64 * s;
+                [x.cos() - 1.0, x.sin()]
+            })
+            .collect()
+    };
+    let rows: Vec<Vec<f64>> = (0..n).map(|i| row(i as f64 / n as f64)).collect();
+    let mut weights = vec![1.0; n];
+    let mut coef = vec![0.0; m];
+    for _ in 0..5 {
+        let mut ata = nalgebra::DMatrix::<f64>::zeros(m, m);
+        let mut atb = nalgebra::DVector::<f64>::zeros(m);
+        for (i, r) in rows.iter().enumerate() {
+            for p in 0..m {
+                atb[p] += weights[i] * r[p] * drift[i];
+                for q in 0..m {
+                    ata[(p, q)] += weights[i] * r[p] * r[q];
+                }
+            }
+        }
+        coef = ata.lu().solve(&atb)?.iter().copied().collect();
+        let residual: Vec<f64> = rows
+            .iter()
+            .zip(drift)
+            .map(|(r, d)| d - r.iter().zip(&coef).map(|(x, c)| x * c).sum::<f64>())
+            .collect();
+        let mut abs: Vec<f64> = residual.iter().map(|r| r.abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        let scale = 1.5 * abs[n / 2] + 1e-9;
+        weights = residual
+            .iter()
+            .map(|r| 1.0 / (r.abs() / scale).max(1.0))
+            .collect();
+    }
+    Some(Warp {
+        coef: coef.chunks(2).map(|c| (c[0], c[1])).collect(),
+    })
+}
+
+fn d2p(a: Point, b: Point) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+/// `n` points of the closed loop at equal fractions of its length, the first at its start.
+fn fraction_samples(pts: &[Point], n: usize) -> Vec<Point> {
+    at_fractions(pts, (0..n).map(|i| i as f64 / n as f64))
+}
+
+/// The points of the closed loop at fractions `fs` (non-decreasing, in [0, 1]) of its length
+/// from its start: one walk along the loop.
+fn at_fractions(pts: &[Point], fs: impl Iterator<Item = f64>) -> Vec<Point> {
+    let m = pts.len();
+    let mut cum = Vec::with_capacity(m + 1);
+    cum.push(0.0);
+    for i in 0..m {
+        cum.push(cum[i] + d2p(pts[i], pts[(i + 1) % m]).sqrt());
+    }
+    let len = cum[m];
+    let mut i = 0;
+    fs.map(|f| {
+        let at = f.clamp(0.0, 1.0) * len;
+        while i + 1 < m && cum[i + 1] < at {
+            i += 1;
+        }
+        let (p, q) = (pts[i], pts[(i + 1) % m]);
+        let l = cum[i + 1] - cum[i];
+        let t = if l > 0.0 {
+            ((at - cum[i]) / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]
+    })
+    .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,6 +438,84 @@ mod tests {
         };
         let starts = baseline(&[&a, &b, &c]);
         assert_eq!(starts, vec![0, 30, 20]);
+    }
+
+    /// A disc of radius 30 with a slot 2 mm wide and 15 mm deep opposite its start; with
+    /// `wiggle`, the arc from 3.5 to 4.3 rad (just past the slot) carries ripples (amplitude
+    /// 1.5 mm, 24 of them), which add length there and nowhere else: the slot then lies at a
+    /// smaller fraction of the loop.
+    fn slotted(wiggle: bool) -> Vec<Point> {
+        let n = 4000;
+        let tau = std::f64::consts::TAU;
+        let mut out = Vec::new();
+        for k in 0..n {
+            let a = tau * k as f64 / n as f64;
+            let off = (a - std::f64::consts::PI).abs();
+            let r = if off < 1.0 / 30.0 { 15.0 } else { 30.0 };
+            let ripple = if wiggle && (3.5..4.3).contains(&a) {
+                1.5 * (96.0 * a).sin().abs()
+            } else {
+                0.0
+            };
+            out.push([(r + ripple) * a.cos(), (r + ripple) * a.sin()]);
+        }
+        out
+    }
+
+    fn blend_crossings(a: &[Point], b: &[Point], table: Option<&[f64]>) -> usize {
+        let n = WARP_SAMPLES;
+        let sa = fraction_samples(a, n);
+        let at = |s: f64| -> f64 {
+            table.map_or(s, |t| {
+                let x = s * (t.len() - 1) as f64;
+                let j = (x.floor() as usize).min(t.len() - 2);
+                t[j] + (x - j as f64) * (t[j + 1] - t[j])
+            })
+        };
+        WARP_BLENDS
+            .iter()
+            .map(|&t| {
+                let blend: Vec<Point> = (0..n)
+                    .map(|i| {
+                        let (p, q) = (
+                            sa[i],
+                            at_fractions(b, std::iter::once(at(i as f64 / n as f64)))[0],
+                        );
+                        [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]
+                    })
+                    .collect();
+                proper_crossings(&blend, usize::MAX)
+            })
+            .sum()
+    }
+
+    #[test]
+    fn a_warp_takes_out_the_drift_that_folds_a_slot() {
+        let (a, b) = (slotted(false), slotted(true));
+        // Chord length joins the slot's walls across it: the ripples' extra length shifts
+        // the fractions by more than the slot is wide.
+        assert!(blend_crossings(&a, &b, None) > 0);
+        let warps = chord_warps(&[Some(a.clone()), Some(b.clone())]);
+        let table = warps[1].as_ref().expect("a warp for the rippled loop");
+        assert!(warps[0]
+            .as_ref()
+            .is_some_and(|t| t
+                .iter()
+                .enumerate()
+                .all(|(j, &f)| (f - j as f64 / WARP_TABLE as f64).abs() < 1e-15)));
+        assert_eq!(table.len(), WARP_TABLE + 1);
+        assert_eq!((table[0], table[WARP_TABLE]), (0.0, 1.0));
+        assert!(table.windows(2).all(|w| w[1] > w[0]));
+        assert_eq!(blend_crossings(&a, &b, Some(table)), 0);
+    }
+
+    #[test]
+    fn loops_that_join_cleanly_keep_chord_length() {
+        let a = slotted(false);
+        let b: Vec<Point> = a.iter().map(|p| [1.02 * p[0], 1.02 * p[1]]).collect();
+        assert_eq!(chord_warps(&[Some(a.clone()), Some(b)]), vec![None, None]);
+        // A cap point and a loop: nothing to match.
+        assert_eq!(chord_warps(&[None, Some(a)]), vec![None, None]);
     }
 
     #[test]

@@ -466,40 +466,64 @@ pub fn is_weakly_simple(pts: &[Point]) -> bool {
 /// strictly on either side of the other's line. Touching does not count (a slit's two sides,
 /// a vertex on an edge), so a keyhole loop does not cross itself; a figure eight does.
 pub fn crosses_itself(pts: &[Point]) -> bool {
+    proper_crossings(pts, 1) > 0
+}
+
+/// Pairs of non-adjacent edges of the closed polygon that cross properly (as in
+/// [`crosses_itself`]), counted up to `limit`.
+pub fn proper_crossings(pts: &[Point], limit: usize) -> usize {
     let n = pts.len();
-    n >= 4
-        && !no_edges_meeting(pts, |i, j, (a, b), (c, d)| {
-            let adjacent = (i + 1) % n == j || (j + 1) % n == i;
-            !adjacent
-                && !boxes_disjoint(a, b, c, d)
-                && orient(a, b, c) * orient(a, b, d) < 0.0
-                && orient(c, d, a) * orient(c, d, b) < 0.0
-        })
+    if n < 4 {
+        return 0;
+    }
+    edges_meeting(pts, limit, |i, j, (a, b), (c, d)| {
+        let adjacent = (i + 1) % n == j || (j + 1) % n == i;
+        !adjacent
+            && !boxes_disjoint(a, b, c, d)
+            && orient(a, b, c) * orient(a, b, d) < 0.0
+            && orient(c, d, a) * orient(c, d, b) < 0.0
+    })
 }
 
 /// Whether `meet(i, j, edge i, edge j)` is false for every pair of edges whose x-ranges
-/// overlap: a sweep over edges sorted by their smallest x, so typical contours cost
-/// O(n log n) rather than O(n²).
+/// overlap (see [`edges_meeting`]).
 fn no_edges_meeting(
     pts: &[Point],
     meet: impl Fn(usize, usize, (Point, Point), (Point, Point)) -> bool,
 ) -> bool {
+    edges_meeting(pts, 1, meet) == 0
+}
+
+/// How many pairs of edges whose x-ranges overlap `meet(i, j, edge i, edge j)` holds for,
+/// counted up to `limit`: a sweep over edges sorted by their smallest x, so typical contours
+/// cost O(n log n) rather than O(n²).
+fn edges_meeting(
+    pts: &[Point],
+    limit: usize,
+    meet: impl Fn(usize, usize, (Point, Point), (Point, Point)) -> bool,
+) -> usize {
     let n = pts.len();
     let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
     let mut order: Vec<usize> = (0..n).collect();
     let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
     order.sort_by(|&a, &b| min_x(a).total_cmp(&min_x(b)));
     let mut active: Vec<usize> = Vec::new();
+    let mut count = 0;
     for &i in &order {
         let (a, b) = edge(i);
         let lo = a[0].min(b[0]);
         active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
-        if active.iter().any(|&j| meet(i, j, (a, b), edge(j))) {
-            return false;
+        for &j in &active {
+            if meet(i, j, (a, b), edge(j)) {
+                count += 1;
+                if count >= limit {
+                    return count;
+                }
+            }
         }
         active.push(i);
     }
-    true
+    count
 }
 
 /// Twice the signed area of the triangle abc: positive when c lies left of a→b.

@@ -1,6 +1,7 @@
 //! Stage 6: closed B-spline fitting on a common knot vector (paper §2.4–2.5, Algorithm 2).
 //! Every curve of a region — contours, intermediate contours, caps — is fitted on one knot
-//! vector within the tolerance. Regions are fitted a batch at a time in parallel and leave in
+//! vector within the tolerance, at chord-length parameters or, where those would fold the
+//! surface between two loops, at warped ones ([`chord_warps`]). Regions are fitted a batch at a time in parallel and leave in
 //! arrival order.
 
 use std::time::Instant;
@@ -9,9 +10,11 @@ use crossbeam_channel::{Receiver, Sender};
 use rayon::prelude::*;
 
 use super::{Control, StageStats};
-use crate::bspline::common_knots::{fit_common, CommonFit};
+use crate::bspline::common_knots::{fit_common_warped, CommonFit};
 use crate::bspline::fit::FitOptions;
+use crate::geometry::alignment::chord_warps;
 use crate::region::Region;
+use crate::section::SliceFrame;
 use crate::{Error, Result};
 
 pub const STAGE: &str = "fitting";
@@ -38,12 +41,35 @@ pub fn fit(region: Region, opts: &FitOptions) -> Result<FittedRegion> {
             }
         })
         .collect();
-    let fit = fit_common(&curves, opts).map_err(|e| Error::Kernel {
+    let warps = warps(&region);
+    let fit = fit_common_warped(&curves, &warps, opts).map_err(|e| Error::Kernel {
         stage: STAGE,
         context: describe(&region),
         source: e,
     })?;
     Ok(FittedRegion { region, fit })
+}
+
+/// Where the region's loops are parameterised off chord length so that consecutive loops
+/// join where they correspond ([`chord_warps`]), seen in the plane of its first loop (all
+/// its curves lie in parallel planes).
+fn warps(region: &Region) -> Vec<Option<Vec<f64>>> {
+    let Some(frame) = region
+        .curves
+        .iter()
+        .find(|c| c.points.len() >= 3)
+        .and_then(|c| SliceFrame::of_loop(&c.points))
+    else {
+        return Vec::new();
+    };
+    let loops: Vec<Option<Vec<[f64; 2]>>> = region
+        .curves
+        .iter()
+        .map(|c| {
+            (c.points.len() >= 3).then(|| c.points.iter().map(|&p| frame.to_plane(p)).collect())
+        })
+        .collect();
+    chord_warps(&loops)
 }
 
 /// Longest gap between fitted points, in tolerances. Compression leaves long straight edges
