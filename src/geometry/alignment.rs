@@ -286,6 +286,24 @@ impl Warp {
 fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     let n = WARP_SAMPLES;
     let (sa, sb) = (fraction_samples(a, n), fraction_samples(b, n));
+    let crossings = |other: &[Point]| -> usize {
+        WARP_BLENDS
+            .iter()
+            .map(|&t| {
+                let blend: Vec<Point> = sa
+                    .iter()
+                    .zip(other)
+                    .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
+                    .collect();
+                proper_crossings(&blend, usize::MAX)
+            })
+            .sum()
+    };
+    // Most loops join cleanly: nothing to measure.
+    let plain = crossings(&sb);
+    if plain == 0 {
+        return None;
+    }
     // Drift: the fraction of b's nearest sample minus a's own, wrapped to (−½, ½].
     let drift: Vec<f64> = sa
         .iter()
@@ -308,21 +326,7 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     }
     // φ is increasing (its speed is positive), so its samples are in order along b.
     let warped = at_fractions(b, (0..n).map(|i| warp.at(i as f64 / n as f64)));
-    let crossings = |other: &[Point]| -> usize {
-        WARP_BLENDS
-            .iter()
-            .map(|&t| {
-                let blend: Vec<Point> = sa
-                    .iter()
-                    .zip(other)
-                    .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
-                    .collect();
-                proper_crossings(&blend, usize::MAX)
-            })
-            .sum()
-    };
-    let plain = crossings(&sb);
-    (plain > 0 && crossings(&warped) < plain).then_some(warp)
+    (crossings(&warped) < plain).then_some(warp)
 }
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
