@@ -31,8 +31,8 @@ use super::polygon::{proper_crossings, Point};
 /// candidate still visits every curve's every point.
 const MAX_CANDIDATES: usize = 256;
 
-fn d2(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
+fn d2<const D: usize>(a: [f64; D], b: [f64; D]) -> f64 {
+    (0..D).map(|d| (a[d] - b[d]).powi(2)).sum()
 }
 
 fn nearest(curve: &[[f64; 3]], p: [f64; 3]) -> usize {
@@ -102,7 +102,7 @@ pub fn align_starts(curves: &[&[[f64; 3]]], spacing: f64) -> Vec<usize> {
 
 /// Among the shifts `first, first + 1, … (count of them, modulo n)` of `n` arc-length samples,
 /// the one (in [0, n)) at which loop `b`'s samples lie closest on average to loop `a`'s.
-fn best_shift(a: &Loop, b: &Loop, n: usize, first: usize, count: usize) -> usize {
+fn best_shift(a: &Loop<3>, b: &Loop<3>, n: usize, first: usize, count: usize) -> usize {
     let (sa, sb) = (a.samples(n), b.samples(n));
     let mut best = (f64::INFINITY, 0);
     for c in 0..count {
@@ -116,15 +116,15 @@ fn best_shift(a: &Loop, b: &Loop, n: usize, first: usize, count: usize) -> usize
 }
 
 /// A closed loop read from a start index, with its cumulative arc length.
-struct Loop<'a> {
-    points: &'a [[f64; 3]],
+struct Loop<'a, const D: usize> {
+    points: &'a [[f64; D]],
     start: usize,
     /// cum[i]: arc length from the start to its i-th point; cum[n]: the whole length.
     cum: Vec<f64>,
 }
 
-impl<'a> Loop<'a> {
-    fn new(points: &'a [[f64; 3]], start: usize) -> Self {
+impl<'a, const D: usize> Loop<'a, D> {
+    fn new(points: &'a [[f64; D]], start: usize) -> Self {
         let n = points.len();
         let mut cum = Vec::with_capacity(n + 1);
         cum.push(0.0);
@@ -139,17 +139,22 @@ impl<'a> Loop<'a> {
         self.cum[self.points.len()]
     }
 
-    fn point(&self, i: usize) -> [f64; 3] {
+    fn point(&self, i: usize) -> [f64; D] {
         self.points[(self.start + i) % self.points.len()]
     }
 
     /// `count` points evenly spaced by arc length, the first at the start.
-    fn samples(&self, count: usize) -> Vec<[f64; 3]> {
+    fn samples(&self, count: usize) -> Vec<[f64; D]> {
+        self.at_fractions((0..count).map(|s| s as f64 / count as f64))
+    }
+
+    /// The points at fractions `fs` (non-decreasing, in [0, 1)) of the length from the start:
+    /// one walk along the loop.
+    fn at_fractions(&self, fs: impl Iterator<Item = f64>) -> Vec<[f64; D]> {
         let len = self.length();
-        let mut out = Vec::with_capacity(count);
         let mut i = 0;
-        for s in 0..count {
-            let at = len * s as f64 / count as f64;
+        fs.map(|f| {
+            let at = len * f;
             while i + 1 < self.points.len() && self.cum[i + 1] <= at {
                 i += 1;
             }
@@ -160,9 +165,9 @@ impl<'a> Loop<'a> {
                 0.0
             };
             let (p, q) = (self.point(i), self.point(i + 1));
-            out.push(std::array::from_fn(|d| p[d] + t * (q[d] - p[d])));
-        }
-        out
+            std::array::from_fn(|d| p[d] + t * (q[d] - p[d]))
+        })
+        .collect()
     }
 
     /// Index (in the original list) of the point nearest to arc-length fraction `f`.
@@ -190,7 +195,7 @@ const WARP_HARMONICS: usize = 3;
 /// A warp may speed a loop up or slow it down at most this much against chord length.
 const WARP_MAX_SPEED: f64 = 2.0;
 /// Entries of a warp table (fractions at common parameters j / WARP_TABLE, j = 0..=it).
-pub const WARP_TABLE: usize = 1024;
+const WARP_TABLE: usize = 1024;
 /// Blend heights at which a warp must cross itself less than chord length does.
 const WARP_BLENDS: [f64; 3] = [0.25, 0.5, 0.75];
 
@@ -222,17 +227,14 @@ pub fn chord_warps(loops: &[Option<Vec<Point>>]) -> Vec<Option<Vec<f64>>> {
         let (Some(a), Some(b)) = (&loops[k - 1], &loops[k]) else {
             continue;
         };
-        if a.len() < 3 || b.len() < 3 {
-            tables[k] = tables[k - 1].clone();
-            continue;
-        }
-        match warp_between(a, b) {
-            Some(phi) => {
-                tables[k] = tables[k - 1].iter().map(|&s| phi.at(s)).collect();
-                any = true;
-            }
-            None => tables[k] = tables[k - 1].clone(),
-        }
+        let phi = (a.len() >= 3 && b.len() >= 3)
+            .then(|| warp_between(a, b))
+            .flatten();
+        any |= phi.is_some();
+        tables[k] = match phi {
+            Some(phi) => tables[k - 1].iter().map(|&s| phi.at(s)).collect(),
+            None => tables[k - 1].clone(),
+        };
     }
     if !any {
         return vec![None; n];
@@ -245,47 +247,43 @@ pub fn chord_warps(loops: &[Option<Vec<Point>>]) -> Vec<Option<Vec<f64>>> {
 }
 
 /// φ(s) = s + Σ_m a_m (cos 2πms − 1) + b_m sin 2πms: loop `b`'s fraction matching loop `a`'s
-/// fraction s.
+/// fraction s. `coef` holds a_1, b_1, a_2, b_2, … (see [`harmonics`]).
 struct Warp {
-    coef: Vec<(f64, f64)>,
+    coef: Vec<f64>,
 }
 
 impl Warp {
-    fn offset(&self, s: f64) -> f64 {
-        let tau = std::f64::consts::TAU;
-        self.coef
-            .iter()
-            .enumerate()
-            .map(|(m, &(a, b))| {
-                let x = tau * (m + 1) as f64 * s;
-                a * (x.cos() - 1.0) + b * x.sin()
-            })
-            .sum()
-    }
-
     fn at(&self, s: f64) -> f64 {
-        (s + self.offset(s)).clamp(0.0, 1.0)
+        let offset: f64 = harmonics(s)
+            .zip(self.coef.chunks(2))
+            .map(|((_, sin, cos), c)| c[0] * (cos - 1.0) + c[1] * sin)
+            .sum();
+        (s + offset).clamp(0.0, 1.0)
     }
 
     fn speed(&self, s: f64) -> f64 {
-        let tau = std::f64::consts::TAU;
-        1.0 + self
-            .coef
-            .iter()
-            .enumerate()
-            .map(|(m, &(a, b))| {
-                let w = tau * (m + 1) as f64;
-                let x = w * s;
-                w * (b * x.cos() - a * x.sin())
-            })
+        1.0 + harmonics(s)
+            .zip(self.coef.chunks(2))
+            .map(|((w, sin, cos), c)| w * (c[1] * cos - c[0] * sin))
             .sum::<f64>()
     }
+}
+
+/// Per harmonic m = 1..=[`WARP_HARMONICS`] at s: (2πm, sin 2πms, cos 2πms). The warp's
+/// basis is cos 2πms − 1 and sin 2πms, which vanish at s = 0.
+fn harmonics(s: f64) -> impl Iterator<Item = (f64, f64, f64)> {
+    (1..=WARP_HARMONICS).map(move |m| {
+        let w = std::f64::consts::TAU * m as f64;
+        let (sin, cos) = (w * s).sin_cos();
+        (w, sin, cos)
+    })
 }
 
 /// The warp from loop `a` to loop `b` (see [`chord_warps`]), if it is kept.
 fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     let n = WARP_SAMPLES;
-    let (sa, sb) = (fraction_samples(a, n), fraction_samples(b, n));
+    let (la, lb) = (Loop::new(a, 0), Loop::new(b, 0));
+    let (sa, sb) = (la.samples(n), lb.samples(n));
     let crossings = |other: &[Point]| -> usize {
         WARP_BLENDS
             .iter()
@@ -310,7 +308,7 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
         .enumerate()
         .map(|(i, p)| {
             let j = (0..n)
-                .min_by(|&x, &y| d2p(*p, sb[x]).total_cmp(&d2p(*p, sb[y])))
+                .min_by(|&x, &y| d2(*p, sb[x]).total_cmp(&d2(*p, sb[y])))
                 .unwrap_or(i);
             let d = (j as f64 - i as f64) / n as f64;
             d - d.round()
@@ -325,7 +323,7 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
         return None;
     }
     // φ is increasing (its speed is positive), so its samples are in order along b.
-    let warped = at_fractions(b, (0..n).map(|i| warp.at(i as f64 / n as f64)));
+    let warped = lb.at_fractions((0..n).map(|i| warp.at(i as f64 / n as f64)));
     (crossings(&warped) < plain).then_some(warp)
 }
 
@@ -334,16 +332,13 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
 fn fit_warp(drift: &[f64]) -> Option<Warp> {
     let n = drift.len();
     let m = 2 * WARP_HARMONICS;
-    let tau = std::f64::consts::TAU;
-    let row = |s: f64| -> Vec<f64> {
-        (1..=WARP_HARMONICS)
-            .flat_map(|h| {
-                let x = tau * h as f64 * s;
-                [x.cos() - 1.0, x.sin()]
-            })
-            .collect()
-    };
-    let rows: Vec<Vec<f64>> = (0..n).map(|i| row(i as f64 / n as f64)).collect();
+    let rows: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            harmonics(i as f64 / n as f64)
+                .flat_map(|(_, sin, cos)| [cos - 1.0, sin])
+                .collect()
+        })
+        .collect();
     let mut weights = vec![1.0; n];
     let mut coef = vec![0.0; m];
     for _ in 0..5 {
@@ -371,46 +366,7 @@ fn fit_warp(drift: &[f64]) -> Option<Warp> {
             .map(|r| 1.0 / (r.abs() / scale).max(1.0))
             .collect();
     }
-    Some(Warp {
-        coef: coef.chunks(2).map(|c| (c[0], c[1])).collect(),
-    })
-}
-
-fn d2p(a: Point, b: Point) -> f64 {
-    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
-}
-
-/// `n` points of the closed loop at equal fractions of its length, the first at its start.
-fn fraction_samples(pts: &[Point], n: usize) -> Vec<Point> {
-    at_fractions(pts, (0..n).map(|i| i as f64 / n as f64))
-}
-
-/// The points of the closed loop at fractions `fs` (non-decreasing, in [0, 1]) of its length
-/// from its start: one walk along the loop.
-fn at_fractions(pts: &[Point], fs: impl Iterator<Item = f64>) -> Vec<Point> {
-    let m = pts.len();
-    let mut cum = Vec::with_capacity(m + 1);
-    cum.push(0.0);
-    for i in 0..m {
-        cum.push(cum[i] + d2p(pts[i], pts[(i + 1) % m]).sqrt());
-    }
-    let len = cum[m];
-    let mut i = 0;
-    fs.map(|f| {
-        let at = f.clamp(0.0, 1.0) * len;
-        while i + 1 < m && cum[i + 1] < at {
-            i += 1;
-        }
-        let (p, q) = (pts[i], pts[(i + 1) % m]);
-        let l = cum[i + 1] - cum[i];
-        let t = if l > 0.0 {
-            ((at - cum[i]) / l).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]
-    })
-    .collect()
+    Some(Warp { coef })
 }
 
 #[cfg(test)]
@@ -468,7 +424,7 @@ mod tests {
 
     fn blend_crossings(a: &[Point], b: &[Point], table: Option<&[f64]>) -> usize {
         let n = WARP_SAMPLES;
-        let sa = fraction_samples(a, n);
+        let (sa, lb) = (Loop::new(a, 0).samples(n), Loop::new(b, 0));
         let at = |s: f64| -> f64 {
             table.map_or(s, |t| {
                 let x = s * (t.len() - 1) as f64;
@@ -483,7 +439,7 @@ mod tests {
                     .map(|i| {
                         let (p, q) = (
                             sa[i],
-                            at_fractions(b, std::iter::once(at(i as f64 / n as f64)))[0],
+                            lb.at_fractions(std::iter::once(at(i as f64 / n as f64)))[0],
                         );
                         [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]
                     })

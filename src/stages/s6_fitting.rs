@@ -1,8 +1,8 @@
 //! Stage 6: closed B-spline fitting on a common knot vector (paper §2.4–2.5, Algorithm 2).
 //! Every curve of a region — contours, intermediate contours, caps — is fitted on one knot
 //! vector within the tolerance, at chord-length parameters or, where those would fold the
-//! surface between two loops, at warped ones ([`chord_warps`]). Regions are fitted a batch at a time in parallel and leave in
-//! arrival order.
+//! surface between two loops, at warped ones ([`chord_warps`]). Regions are fitted a batch at
+//! a time in parallel and leave in arrival order.
 
 use std::time::Instant;
 
