@@ -49,7 +49,10 @@ proptest! {
         let reach = 2.0;
         let spurs = arm_spurs(&lp, &nb, reach, reach / 4.0, 0.03);
         prop_assert_eq!(spurs.len(), 1);
-        let path = &spurs[0].path;
+        // A thin arc is an arm, not a lobe: its walk is the path out and back.
+        prop_assert!(!spurs[0].lobe);
+        let walk = &spurs[0].walk;
+        let path = &walk[..walk.len().div_ceil(2)];
         let polar = |p: Point| {
             let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
             (dx.hypot(dy), (dy.atan2(dx) - start).rem_euclid(std::f64::consts::TAU))

@@ -102,7 +102,13 @@ pub fn align_starts(curves: &[&[[f64; 3]]], spacing: f64) -> Vec<usize> {
 
 /// Among the shifts `first, first + 1, … (count of them, modulo n)` of `n` arc-length samples,
 /// the one (in [0, n)) at which loop `b`'s samples lie closest on average to loop `a`'s.
-fn best_shift(a: &Loop<3>, b: &Loop<3>, n: usize, first: usize, count: usize) -> usize {
+fn best_shift<const D: usize>(
+    a: &Loop<D>,
+    b: &Loop<D>,
+    n: usize,
+    first: usize,
+    count: usize,
+) -> usize {
     let (sa, sb) = (a.samples(n), b.samples(n));
     let mut best = (f64::INFINITY, 0);
     for c in 0..count {
@@ -284,19 +290,7 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     let n = WARP_SAMPLES;
     let (la, lb) = (Loop::new(a, 0), Loop::new(b, 0));
     let (sa, sb) = (la.samples(n), lb.samples(n));
-    let crossings = |other: &[Point]| -> usize {
-        WARP_BLENDS
-            .iter()
-            .map(|&t| {
-                let blend: Vec<Point> = sa
-                    .iter()
-                    .zip(other)
-                    .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
-                    .collect();
-                proper_crossings(&blend, usize::MAX)
-            })
-            .sum()
-    };
+    let crossings = |other: &[Point]| blends_crossing(&sa, other);
     // Most loops join cleanly: nothing to measure.
     let plain = crossings(&sb);
     if plain == 0 {
@@ -325,6 +319,36 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     // φ is increasing (its speed is positive), so its samples are in order along b.
     let warped = lb.at_fractions((0..n).map(|i| warp.at(i as f64 / n as f64)));
     (crossings(&warped) < plain).then_some(warp)
+}
+
+/// Proper self-crossings of the blends at t = ¼, ½, ¾ of two loops' samples paired in order.
+fn blends_crossing(sa: &[Point], sb: &[Point]) -> usize {
+    WARP_BLENDS
+        .iter()
+        .map(|&t| {
+            let blend: Vec<Point> = sa
+                .iter()
+                .zip(sb)
+                .map(|(p, q)| [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])])
+                .collect();
+            proper_crossings(&blend, usize::MAX)
+        })
+        .sum()
+}
+
+/// How often the surface between loops `a` and `b` (2-D, in their common plane) would cross
+/// itself by chord length: the blends' crossings (as [`chord_warps`] counts them) once `b`
+/// starts where [`align_starts`] would start it against `a`.
+pub fn join_crossings(a: &[Point], b: &[Point]) -> usize {
+    if a.len() < 3 || b.len() < 3 {
+        return 0;
+    }
+    let n = WARP_SAMPLES;
+    let (la, lb) = (Loop::new(a, 0), Loop::new(b, 0));
+    let shift = best_shift(&la, &lb, n, 0, n);
+    let (sa, mut sb) = (la.samples(n), lb.samples(n));
+    sb.rotate_left(shift);
+    blends_crossing(&sa, &sb)
 }
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
@@ -467,6 +491,19 @@ mod tests {
         assert_eq!((table[0], table[WARP_TABLE]), (0.0, 1.0));
         assert!(table.windows(2).all(|w| w[1] > w[0]));
         assert_eq!(blend_crossings(&a, &b, Some(table)), 0);
+    }
+
+    #[test]
+    fn join_crossings_align_the_start_then_count_the_folds() {
+        // The slot fixture folds by chord length however the rippled loop starts; the same
+        // loop started elsewhere does not.
+        let (a, b) = (slotted(false), slotted(true));
+        assert!(blend_crossings(&a, &b, None) > 0);
+        assert!(join_crossings(&a, &b) > 0);
+        let mut turned = a.clone();
+        turned.rotate_left(1234);
+        assert_eq!(join_crossings(&a, &turned), 0);
+        assert_eq!(join_crossings(&a, &a[..2]), 0);
     }
 
     #[test]

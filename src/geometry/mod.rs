@@ -10,6 +10,7 @@ pub mod conform;
 pub mod contours;
 pub mod distance_map;
 pub mod keyhole;
+pub mod lobe;
 pub mod marching_squares;
 pub mod overlap;
 pub mod polygon;

@@ -27,10 +27,13 @@
 //! midpoints. It is kept only if every cross chord stays inside the neighbour, the spur
 //! crosses neither curve nor folds, and one of the loop's own vertices lies within
 //! [`ARM_REACHES`] reaches of its root: no vertex is inserted, as the loops across the plane
-//! share the loop's vertices and no others.
+//! share the loop's vertices and no others. A run that fails these checks gets a walk round
+//! its lobe's medial tree instead, if one fits ([`super::lobe`]); such spurs are marked, for
+//! the caller keeps them only where they help.
 
 use std::collections::HashMap;
 
+use super::lobe::lobe_walk;
 use super::polygon::{
     boundary_distance, contains, dist, perimeter, point_segment_distance, segments_intersect, Point,
 };
@@ -49,11 +52,15 @@ const CHORD_SAMPLES: usize = 32;
 /// A cross chord shorter than this many steps may fail its checks.
 const SHORT_CHORD_STEPS: f64 = 4.0;
 
-/// A spur: it leaves the loop at vertex `from` and runs through `path`, base to tip.
+/// A spur: it leaves the loop at vertex `from`, walks `walk` and comes back to the vertex.
+/// An arm's walk is its path from the base to the tip and back; a lobe's, the round of its
+/// medial tree ([`super::lobe`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Spur {
     pub from: usize,
-    pub path: Vec<Point>,
+    pub walk: Vec<Point>,
+    /// A lobe's walk rather than an arm's: the caller keeps it only where it helps.
+    pub lobe: bool,
 }
 
 /// The spurs of the loop `lp` into the arms of `neighbour` (see the module doc), in the order
@@ -91,7 +98,16 @@ pub fn arm_spurs(lp: &[Point], neighbour: &[Point], reach: f64, step: f64, tol: 
         if contains(lp, run[0]) {
             continue;
         }
-        if let Some(spur) = arm_spur(lp, neighbour, &run, reach, step, tol) {
+        let spur = arm_spur(lp, neighbour, &run, reach, step, tol).or_else(|| {
+            lobe_walk(lp, neighbour, &run, reach, step, tol, ARM_REACHES * reach).map(
+                |(from, walk)| Spur {
+                    from,
+                    walk,
+                    lobe: true,
+                },
+            )
+        });
+        if let Some(spur) = spur {
             if spurs.iter().all(|s| s.from != spur.from) {
                 spurs.push(spur);
             }
@@ -101,18 +117,16 @@ pub fn arm_spurs(lp: &[Point], neighbour: &[Point], reach: f64, step: f64, tol: 
     spurs
 }
 
-/// `lp` with `spurs` (from [`arm_spurs`]) inserted: after each spur's vertex, its points out
-/// (`lift`ed into `lp`'s type), back over all but the tip, and the vertex again.
+/// `lp` with `spurs` (from [`arm_spurs`]) inserted: after each spur's vertex, its walk
+/// (`lift`ed into `lp`'s type) and the vertex again.
 pub fn with_spurs<T: Copy>(lp: &[T], spurs: &[Spur], lift: impl Fn(Point) -> T) -> Vec<T> {
-    let extra: usize = spurs.iter().map(|s| 2 * s.path.len()).sum();
+    let extra: usize = spurs.iter().map(|s| s.walk.len() + 1).sum();
     let mut out = Vec::with_capacity(lp.len() + extra);
     let mut next = spurs.iter().peekable();
     for (i, &p) in lp.iter().enumerate() {
         out.push(p);
         if let Some(s) = next.next_if(|s| s.from == i) {
-            let path: Vec<T> = s.path.iter().map(|&q| lift(q)).collect();
-            out.extend(path.iter().copied());
-            out.extend(path[..path.len() - 1].iter().rev().copied());
+            out.extend(s.walk.iter().map(|&q| lift(q)));
             out.push(p);
         }
     }
@@ -187,21 +201,30 @@ fn arm_spur(
         }
         path.push(mid(p, q));
     }
-    let n = lp.len();
     let path = settled_path(&path, tol, |a, b| {
         crosses_neighbour(a, b) || crosses_polygon(a, b, lp, eps)
     })?;
 
-    // Leave from the loop vertex nearest the base, if the way there is clear of the loop. It
-    // may cross the neighbour where the arm's neck is thinner than its base.
-    let v = (0..n).min_by(|&a, &b| dist(lp[a], path[0]).total_cmp(&dist(lp[b], path[0])))?;
+    // It may cross the neighbour where the arm's neck is thinner than its base.
+    let v = departure(lp, path[0], ARM_REACHES * reach)?;
+    let back = path[..path.len() - 1].iter().rev().copied();
+    let walk = path.iter().copied().chain(back).collect();
+    Some(Spur {
+        from: v,
+        walk,
+        lobe: false,
+    })
+}
+
+/// The loop vertex nearest `root`, if it lies within `max_link` of it and the way there is
+/// clear of the loop: where a spur leaves the loop.
+pub(super) fn departure(lp: &[Point], root: Point, max_link: f64) -> Option<usize> {
+    let n = lp.len();
+    let v = (0..n).min_by(|&a, &b| dist(lp[a], root).total_cmp(&dist(lp[b], root)))?;
     let clear = (0..n)
         .filter(|&i| i != v && (i + 1) % n != v)
-        .all(|i| !segments_intersect(lp[v], path[0], lp[i], lp[(i + 1) % n]));
-    if dist(lp[v], path[0]) > ARM_REACHES * reach || !clear {
-        return None;
-    }
-    Some(Spur { from: v, path })
+        .all(|i| !segments_intersect(lp[v], root, lp[i], lp[(i + 1) % n]));
+    (dist(lp[v], root) <= max_link && clear).then_some(v)
 }
 
 fn mid(p: Point, q: Point) -> Point {
@@ -296,6 +319,11 @@ mod tests {
     use super::*;
     use crate::geometry::polygon::{circle, signed_area};
 
+    /// An arm spur's path from the base to the tip: the first half of its walk.
+    fn path(s: &Spur) -> &[Point] {
+        &s.walk[..s.walk.len().div_ceil(2)]
+    }
+
     /// The axis-aligned rectangle x0..x1 × y0..y1, counter-clockwise.
     fn rect(x0: f64, x1: f64, y0: f64, y1: f64) -> Vec<Point> {
         vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
@@ -320,25 +348,26 @@ mod tests {
         let spurs = arm_spurs(&lp, &bar, 2.0, 0.5, 0.05);
         assert_eq!(spurs.len(), 1, "{spurs:?}");
         let s = &spurs[0];
+        let s_path = path(s);
         // From the loop's end nearest the arm, along the bar's middle, to its far end.
         assert!(lp[s.from][1] == 30.0, "{:?}", lp[s.from]);
-        for p in &s.path {
+        for p in s_path {
             assert!(
                 (p[0] - 1.0).abs() < 1e-6 && p[1] > 30.0 && p[1] <= 70.0,
                 "{p:?}"
             );
         }
-        assert!(s.path[0][1] < 36.0, "{:?}", s.path[0]);
-        assert!(s.path[s.path.len() - 1][1] > 69.0, "{:?}", s.path.last());
+        assert!(s_path[0][1] < 36.0, "{:?}", s_path[0]);
+        assert!(s_path[s_path.len() - 1][1] > 69.0, "{:?}", s_path.last());
         // Out and back: the loop gains no area, each spur point but the tip is visited twice
         // and the vertex it leaves from again.
         let spurred = with_spurs(&lp, &spurs, |p| p);
-        assert_eq!(spurred.len(), lp.len() + 2 * s.path.len());
+        assert_eq!(spurred.len(), lp.len() + 2 * s_path.len());
         assert!((signed_area(&spurred) - signed_area(&lp)).abs() < 1e-9);
         let visits = |q: Point| spurred.iter().filter(|&&p| p == q).count();
         assert_eq!(visits(lp[s.from]), 2);
-        assert_eq!(visits(s.path[s.path.len() - 1]), 1);
-        for &p in &s.path[..s.path.len() - 1] {
+        assert_eq!(visits(s_path[s_path.len() - 1]), 1);
+        for &p in &s_path[..s_path.len() - 1] {
             assert_eq!(visits(p), 2);
         }
     }
@@ -350,7 +379,7 @@ mod tests {
         let arm = arc_band(49.0, 51.0, 0.0, 1.6, 160);
         let spurs = arm_spurs(&lp, &arm, 2.0, 0.5, 0.05);
         assert_eq!(spurs.len(), 1, "{spurs:?}");
-        let path = &spurs[0].path;
+        let path = path(&spurs[0]);
         for p in path {
             let (r, a) = (p[0].hypot(p[1]), p[1].atan2(p[0]));
             assert!(a > 0.4 && a <= 1.6 + 1e-9, "angle {a}");

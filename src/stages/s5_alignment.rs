@@ -3,15 +3,17 @@
 //! correspond; orientation is unchanged. Beyond the paper, the loop at either end of a
 //! region (an intermediate contour, keyhole or contour; not a cap) first grows a spur into
 //! each thin arm that the next curve has and it lacks ([`crate::geometry::spur`]), so that
-//! the arm's walls have somewhere to rise from.
+//! the arm's walls have somewhere to rise from, and a walk round the medial tree of each
+//! wider lobe ([`crate::geometry::lobe`]) where that makes the join with the next curve fold
+//! less.
 
 use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
 
 use super::{Control, StageStats};
-use crate::geometry::alignment::align_starts;
-use crate::geometry::spur::{arm_spurs, with_spurs};
+use crate::geometry::alignment::{align_starts, join_crossings};
+use crate::geometry::spur::{arm_spurs, with_spurs, Spur};
 use crate::region::{CurveOrigin, Region};
 use crate::section::{dot, SliceFrame};
 use crate::Result;
@@ -55,7 +57,28 @@ pub fn add_arm_spurs(region: &mut Region, tolerance: f64) -> usize {
         let reach = (ARM_REACH_PLANES * gap).max(ARM_TOLERANCES * tolerance);
         let flat = |c: &[[f64; 3]]| c.iter().map(|&p| frame.to_plane(p)).collect::<Vec<_>>();
         let (a, b) = (flat(&lp.points), flat(&next.points));
-        let spurs = arm_spurs(&a, &b, reach, reach / 4.0, tolerance / 16.0);
+        let (mut spurs, lobes): (Vec<Spur>, Vec<Spur>) =
+            arm_spurs(&a, &b, reach, reach / 4.0, tolerance / 16.0)
+                .into_iter()
+                .partition(|s| !s.lobe);
+        // A lobe's walk stays only where the join with the neighbour then folds less: a
+        // short, wide lobe fans out across its root without folding, and a walk there
+        // only moves the join.
+        let mut folds = None;
+        for lobe in lobes {
+            let now =
+                *folds.get_or_insert_with(|| join_crossings(&with_spurs(&a, &spurs, |p| p), &b));
+            if now == 0 {
+                break;
+            }
+            let mut trial = spurs.clone();
+            let at = trial.partition_point(|s| s.from < lobe.from);
+            trial.insert(at, lobe);
+            let trial_folds = join_crossings(&with_spurs(&a, &trial, |p| p), &b);
+            if trial_folds < now {
+                (spurs, folds) = (trial, Some(trial_folds));
+            }
+        }
         // The loop's own vertices keep their coordinates bit for bit (the regions across the
         // plane share them); only the spurs' points are new.
         let points = with_spurs(&lp.points, &spurs, |p| frame.to_patient(p));
