@@ -1,14 +1,14 @@
-//! Lobe spurs (beyond the paper): the medial tree of a lobe that the curve beside a region's
+//! Lobe walks (beyond the paper): the medial tree of a lobe that the curve beside a region's
 //! end curve has and the end curve lacks, where the lobe is too wide, bent or branched for an
 //! arm spur ([`super::spur`]).
 //!
 //! A branching's intermediate contour can end short of a whole lobe of the contour half a
-//! slice away: on the GE head, a 90 mm lobe of skull 30 mm wide with bays and sub-lobes of
-//! its own. Skinned as they are, the lobe's walls all join the few points of the loop across
-//! its root, and the chord-length fractions of the two curves drift apart by the lobe's
-//! length along the rest of them (MeshLab counted 2,573 faces of that surface crossing each
-//! other). An arm spur needs every cross chord of the lobe to stay inside it, which a lobe
-//! with sub-lobes never passes. Here the loop grows the lobe's medial tree instead: the
+//! slice away: on the GE head, a lobe of skull 81 mm deep and 19 mm wide on average, with
+//! bays and sub-lobes of its own (surface 82). Skinned as they are, the lobe's walls all join
+//! the few points of the loop across its root, and the chord-length fractions of the two
+//! curves drift apart by the lobe's length along the rest of them (MeshLab counted 2,680
+//! faces of that surface crossing others; 807 with the walk). An arm spur needs every cross
+//! chord of the lobe to stay inside it, which a lobe with sub-lobes never passes. Here the loop grows the lobe's medial tree instead: the
 //! skeleton of the lobe's raster, pruned of short twigs, walked round like a tent's ridge
 //! poles, out along each branch and back, so each wall of the lobe rises to the branch
 //! beside it. The walk adds no area, and every tree edge is used once in each direction.
