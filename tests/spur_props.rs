@@ -117,15 +117,9 @@ proptest! {
         prop_assert!((signed_area(&spurred) - signed_area(&lp)).abs() < 1e-9);
         let outwards = if ccw { 1e-3 } else { -1e-3 };
         prop_assert!(is_simple(&opened(&spurred, outwards)));
+        // Opened the other way its two sides overlap: the check can fail.
+        prop_assert!(!is_simple(&opened(&spurred, -outwards)));
     }
-}
-
-proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 64,
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
 
     #[test]
     fn a_spur_runs_along_the_arm_the_loop_lacks(
