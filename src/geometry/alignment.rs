@@ -88,28 +88,29 @@ pub fn align_starts(curves: &[&[[f64; 3]]], spacing: f64) -> Vec<usize> {
         let a = Loop::new(curves[k - 1], starts[k - 1]);
         let b = Loop::new(curves[k], 0);
         // Every shift at a coarse resolution, then the neighbourhood of the best at a fine one.
-        let coarse = best_shift(&a, &b, COARSE_SAMPLES, 0, COARSE_SAMPLES);
+        let n = COARSE_SAMPLES;
+        let coarse = best_shift(&a.samples(n), &b.samples(n), 0, n);
         let length = a.length().max(b.length());
         let fine =
             ((length / spacing.max(1e-9)).ceil() as usize).clamp(COARSE_SAMPLES, FINE_SAMPLES);
         let ratio = fine.div_ceil(COARSE_SAMPLES);
         let centre = coarse * fine / COARSE_SAMPLES;
-        let shift = best_shift(&a, &b, fine, centre + fine - ratio, 2 * ratio + 1);
+        let (sa, sb) = (a.samples(fine), b.samples(fine));
+        let shift = best_shift(&sa, &sb, centre + fine - ratio, 2 * ratio + 1);
         starts[k] = b.vertex_at(shift as f64 / fine as f64);
     }
     starts
 }
 
-/// Among the shifts `first, first + 1, … (count of them, modulo n)` of `n` arc-length samples,
-/// the one (in [0, n)) at which loop `b`'s samples lie closest on average to loop `a`'s.
+/// Among the shifts `first, first + 1, … (count of them, modulo n)` of two loops' `n`
+/// arc-length samples each, the one (in [0, n)) at which `sb` lies closest on average to `sa`.
 fn best_shift<const D: usize>(
-    a: &Loop<D>,
-    b: &Loop<D>,
-    n: usize,
+    sa: &[[f64; D]],
+    sb: &[[f64; D]],
     first: usize,
     count: usize,
 ) -> usize {
-    let (sa, sb) = (a.samples(n), b.samples(n));
+    let n = sa.len();
     let mut best = (f64::INFINITY, 0);
     for c in 0..count {
         let shift = (first + c) % n;
@@ -344,9 +345,8 @@ pub fn join_crossings(a: &[Point], b: &[Point]) -> usize {
         return 0;
     }
     let n = WARP_SAMPLES;
-    let (la, lb) = (Loop::new(a, 0), Loop::new(b, 0));
-    let shift = best_shift(&la, &lb, n, 0, n);
-    let (sa, mut sb) = (la.samples(n), lb.samples(n));
+    let (sa, mut sb) = (Loop::new(a, 0).samples(n), Loop::new(b, 0).samples(n));
+    let shift = best_shift(&sa, &sb, 0, n);
     sb.rotate_left(shift);
     blends_crossing(&sa, &sb)
 }

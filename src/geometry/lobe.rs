@@ -25,7 +25,7 @@ use std::collections::VecDeque;
 use super::polygon::{bbox, dist, point_segment_distance, segments_intersect, signed_area};
 use super::polygon::{BoundaryIndex, Point};
 use super::ridge::crosses_polygon;
-use super::simplify::mark;
+use super::simplify::simplify_open;
 use super::spur::departure;
 
 /// Most raster cells of a lobe; a larger lobe is rastered coarser.
@@ -193,6 +193,7 @@ struct Tree {
     parent: Vec<usize>,
     /// Path length (mm) from each cell's parent.
     step: Vec<f64>,
+    children: Vec<Vec<usize>>,
 }
 
 /// A branch of the pruned tree between two nodes (the root, forks and tips), compressed: its
@@ -209,6 +210,7 @@ impl Tree {
             cells: vec![root],
             parent: vec![0],
             step: vec![0.0],
+            children: vec![Vec::new()],
         };
         order[root] = 0;
         let mut queue = VecDeque::from([0usize]);
@@ -220,6 +222,8 @@ impl Tree {
             for (d, j) in raster.ring(i).into_iter().enumerate() {
                 if skeleton[j] && order[j] == usize::MAX {
                     order[j] = tree.cells.len();
+                    tree.children[k].push(order[j]);
+                    tree.children.push(Vec::new());
                     tree.cells.push(j);
                     tree.parent.push(k);
                     let diagonal = d % 2 == 1;
@@ -239,10 +243,7 @@ impl Tree {
         let m = self.cells.len();
         // Height: path length to the farthest non-twig tip below (−∞ if none).
         let mut height = vec![f64::NEG_INFINITY; m];
-        let mut children: Vec<Vec<usize>> = vec![Vec::new(); m];
-        for k in (1..m).rev() {
-            children[self.parent[k]].push(k);
-        }
+        let children = &self.children;
         for k in (0..m).rev() {
             if children[k].is_empty() && !twig(self.cells[k]) {
                 height[k] = 0.0;
@@ -257,10 +258,11 @@ impl Tree {
             if !kept[k] {
                 continue;
             }
-            let longest = children[k]
-                .iter()
-                .copied()
-                .max_by(|&a, &b| (height[a] + self.step[a]).total_cmp(&(height[b] + self.step[b])));
+            // Of equals, the child reached first (max_by keeps the last).
+            let longest =
+                children[k].iter().rev().copied().max_by(|&a, &b| {
+                    (height[a] + self.step[a]).total_cmp(&(height[b] + self.step[b]))
+                });
             for &c in &children[k] {
                 let length = height[c] + self.step[c];
                 kept[c] = length.is_finite() && (Some(c) == longest || length >= reach);
@@ -271,13 +273,11 @@ impl Tree {
 
     /// The kept tree as compressed branches, in breadth-first order from the root.
     fn poles(&self, kept: &[bool], at: impl Fn(usize) -> Point, tol: f64) -> Vec<Pole> {
-        let m = self.cells.len();
-        let mut children: Vec<Vec<usize>> = vec![Vec::new(); m];
-        for k in 1..m {
-            if kept[k] {
-                children[self.parent[k]].push(k);
-            }
-        }
+        let children: Vec<Vec<usize>> = self
+            .children
+            .iter()
+            .map(|c| c.iter().copied().filter(|&k| kept[k]).collect())
+            .collect();
         let mut poles: Vec<Pole> = Vec::new();
         // (first cell of a branch, the node it leaves from, the pole that node ends)
         let mut queue: VecDeque<(usize, usize, Option<usize>)> =
@@ -290,16 +290,9 @@ impl Tree {
                 chain.push(k);
             }
             let pts: Vec<Point> = chain.iter().map(|&c| at(self.cells[c])).collect();
-            let mut keep = vec![false; pts.len()];
-            keep[0] = true;
-            keep[pts.len() - 1] = true;
-            mark(&pts, 0, pts.len() - 1, tol, &mut keep);
             let idx = poles.len();
             poles.push(Pole {
-                points: (0..pts.len())
-                    .filter(|&i| keep[i])
-                    .map(|i| pts[i])
-                    .collect(),
+                points: simplify_open(&pts, tol),
                 from,
             });
             queue.extend(children[k].iter().map(|&c| (c, k, Some(idx))));
@@ -312,17 +305,21 @@ impl Tree {
 /// node the branches in turn counter-clockwise from the way back (clockwise for a clockwise
 /// loop), so the walk keeps the tree on the loop's inner side and never crosses itself.
 fn walk(poles: &[Pole], root: Point, entry: Point, ccw: bool) -> Vec<Point> {
+    // The branches leaving each pole's tip, and (last) those leaving the root.
+    let mut leaving: Vec<Vec<usize>> = vec![Vec::new(); poles.len() + 1];
+    for (i, p) in poles.iter().enumerate() {
+        leaving[p.from.unwrap_or(poles.len())].push(i);
+    }
     let mut out = vec![root];
-    let starts: Vec<usize> = (0..poles.len())
-        .filter(|&i| poles[i].from.is_none())
-        .collect();
-    visit(poles, &starts, root, entry, ccw, &mut out);
+    visit(poles, &leaving, poles.len(), root, entry, ccw, &mut out);
     out
 }
 
+/// Walks the branches leaving `node` (`leaving[at]`), whose way back goes to `back`.
 fn visit(
     poles: &[Pole],
-    branches: &[usize],
+    leaving: &[Vec<usize>],
+    at: usize,
     node: Point,
     back: Point,
     ccw: bool,
@@ -346,16 +343,13 @@ fn visit(
             std::f64::consts::TAU - a
         }
     };
-    let mut order = branches.to_vec();
+    let mut order = leaving[at].clone();
     order.sort_by(|&a, &b| turn(a).total_cmp(&turn(b)));
     for i in order {
         let pts = &poles[i].points;
         out.extend(pts[1..].iter().copied());
         let tip = pts[pts.len() - 1];
-        let next: Vec<usize> = (0..poles.len())
-            .filter(|&j| poles[j].from == Some(i))
-            .collect();
-        visit(poles, &next, tip, pts[pts.len() - 2], ccw, out);
+        visit(poles, leaving, i, tip, pts[pts.len() - 2], ccw, out);
         out.extend(pts[..pts.len() - 1].iter().rev().copied());
     }
 }

@@ -22,7 +22,7 @@ use super::polygon::{
     boundary_distance, contains, dist, orient, perimeter, point_segment_distance,
     segments_intersect, Point,
 };
-use super::simplify::mark;
+use super::simplify::simplify_open;
 
 /// cos 45°: a path turning back by more than 135° folds.
 const FOLD_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
@@ -156,15 +156,10 @@ pub(super) fn settled_path(
     tol: f64,
     crosses_contour: impl Fn(Point, Point) -> bool,
 ) -> Option<Vec<Point>> {
-    let ends = path.len().checked_sub(1)?;
-    let mut keep = vec![false; path.len()];
-    keep[0] = true;
-    keep[ends] = true;
-    mark(path, 0, ends, tol, &mut keep);
-    let kept: Vec<Point> = (0..path.len())
-        .filter(|&i| keep[i])
-        .map(|i| path[i])
-        .collect();
+    if path.is_empty() {
+        return None;
+    }
+    let kept = simplify_open(path, tol);
     let k = kept.len();
     for i in 0..k - 1 {
         if crosses_contour(kept[i], kept[i + 1]) {

@@ -25,6 +25,21 @@ pub fn simplify_closed(pts: &[Point], tol: f64) -> Vec<Point> {
     pts.to_vec()
 }
 
+/// Compress an open chain, keeping its ends (Douglas–Peucker on segments).
+pub fn simplify_open(pts: &[Point], tol: f64) -> Vec<Point> {
+    let Some(last) = pts.len().checked_sub(1) else {
+        return Vec::new();
+    };
+    let mut keep = vec![false; pts.len()];
+    keep[0] = true;
+    keep[last] = true;
+    mark(pts, 0, last, tol, &mut keep);
+    (0..pts.len())
+        .filter(|&i| keep[i])
+        .map(|i| pts[i])
+        .collect()
+}
+
 fn simplify_once(pts: &[Point], tol: f64) -> Vec<Point> {
     let n = pts.len();
     // Split the loop at point 0 and the point farthest from it: two open chains.

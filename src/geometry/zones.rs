@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::distance_map::{Grid, NearestContours};
 use super::marching_squares::iso_loops;
 use super::polygon::{dist, is_simple, signed_area, Point};
-use super::simplify::{mark, simplify_closed};
+use super::simplify::{simplify_closed, simplify_open};
 
 /// Stands for zero in zone fields, with a sign: marching squares counts a sample equal to the
 /// level as inside, so an exact tie between two zones must be inside exactly one of them (and
@@ -274,11 +274,7 @@ fn simplify_chain(chain: &[Point], tol: f64) -> Vec<Point> {
     } else {
         chain.to_vec()
     };
-    let mut keep = vec![false; n];
-    keep[0] = true;
-    keep[n - 1] = true;
-    mark(&pts, 0, n - 1, tol, &mut keep);
-    let mut out: Vec<Point> = (0..n).filter(|&i| keep[i]).map(|i| pts[i]).collect();
+    let mut out = simplify_open(&pts, tol);
     if reversed {
         out.reverse();
     }
