@@ -24,6 +24,8 @@ use crate::bspline::vecops::{add, dot, norm, scale, sub};
 use crate::geometry::polygon::{crosses_itself, Point};
 use crate::section::SliceFrame;
 
+pub mod crossings;
+
 pub type Triangle = [[f64; 3]; 3];
 type P3 = [f64; 3];
 
