@@ -59,7 +59,7 @@ fn main() {
             if ids.as_ref().is_some_and(|ids| !ids.contains(&region.id)) {
                 continue;
             }
-            s5_alignment::align(&mut region, tol);
+            s5_alignment::align(&mut region, &FitOptions::new(tol));
             let fitted = s6_fitting::fit(region.clone(), &FitOptions::new(tol))
                 .unwrap_or_else(|e| fail(&e.to_string()));
             let (params, points) = (fitted.fit.params.clone(), fitted.fit.points.clone());

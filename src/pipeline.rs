@@ -263,7 +263,7 @@ pub fn run_surfaces(
         let alignment = scope.spawn(|| {
             cancel_on_error(
                 ctl,
-                s5_alignment::run(regions_rx, aligned_tx, config.tolerance_mm, ctl),
+                s5_alignment::run(regions_rx, aligned_tx, &fit_opts, ctl),
             )
         });
         let fitting = scope.spawn(|| {

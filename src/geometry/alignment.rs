@@ -337,20 +337,6 @@ fn blends_crossing(sa: &[Point], sb: &[Point]) -> usize {
         .sum()
 }
 
-/// How often the surface between loops `a` and `b` (2-D, in their common plane) would cross
-/// itself by chord length: the blends' crossings (as [`chord_warps`] counts them) once `b`
-/// starts where [`align_starts`] would start it against `a`.
-pub fn join_crossings(a: &[Point], b: &[Point]) -> usize {
-    if a.len() < 3 || b.len() < 3 {
-        return 0;
-    }
-    let n = WARP_SAMPLES;
-    let (sa, mut sb) = (Loop::new(a, 0).samples(n), Loop::new(b, 0).samples(n));
-    let shift = best_shift(&sa, &sb, 0, n);
-    sb.rotate_left(shift);
-    blends_crossing(&sa, &sb)
-}
-
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
 /// sampled at s = i / n.
 fn fit_warp(drift: &[f64]) -> Option<Warp> {
@@ -491,19 +477,6 @@ mod tests {
         assert_eq!((table[0], table[WARP_TABLE]), (0.0, 1.0));
         assert!(table.windows(2).all(|w| w[1] > w[0]));
         assert_eq!(blend_crossings(&a, &b, Some(table)), 0);
-    }
-
-    #[test]
-    fn join_crossings_align_the_start_then_count_the_folds() {
-        // The slot fixture folds by chord length however the rippled loop starts; the same
-        // loop started elsewhere does not.
-        let (a, b) = (slotted(false), slotted(true));
-        assert!(blend_crossings(&a, &b, None) > 0);
-        assert!(join_crossings(&a, &b) > 0);
-        let mut turned = a.clone();
-        turned.rotate_left(1234);
-        assert_eq!(join_crossings(&a, &turned), 0);
-        assert_eq!(join_crossings(&a, &a[..2]), 0);
     }
 
     #[test]

@@ -38,7 +38,9 @@ pub struct Surface {
     pub tolerance_met: bool,
 }
 
-pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
+/// The surface through a region's fitted curves, with the end conditions its end curves ask
+/// for (a cap, a branching seam, or free).
+pub fn skin(fitted: &FittedRegion) -> Result<SkinnedSurface> {
     let FittedRegion { region, fit } = fitted;
     let end = |c: Option<&RegionCurve>| match c.map(|c| c.origin) {
         Some(CurveOrigin::Cap { .. }) => SkinEnd::Cap,
@@ -46,11 +48,16 @@ pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
         _ => SkinEnd::Free,
     };
     let ends = [end(region.curves.first()), end(region.curves.last())];
-    let surface = skin_ends(&fit.curves, ends).map_err(|e| Error::Kernel {
+    skin_ends(&fit.curves, ends).map_err(|e| Error::Kernel {
         stage: STAGE,
-        context: describe(&region),
+        context: describe(region),
         source: e,
-    })?;
+    })
+}
+
+pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
+    let surface = skin(&fitted)?;
+    let FittedRegion { region, fit } = fitted;
     let v_bar = surface.v_bar();
     let mut dists: Vec<f64> = Vec::new();
     for (k, c) in region.curves.iter().enumerate() {
