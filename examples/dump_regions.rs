@@ -59,9 +59,10 @@ fn main() {
             if ids.as_ref().is_some_and(|ids| !ids.contains(&region.id)) {
                 continue;
             }
-            s5_alignment::align(&mut region, &FitOptions::new(tol));
-            let fitted = s6_fitting::fit(region.clone(), &FitOptions::new(tol))
-                .unwrap_or_else(|e| fail(&e.to_string()));
+            let opts = FitOptions::new(tol);
+            s5_alignment::align(&mut region, &opts);
+            let fitted =
+                s6_fitting::fit(region.clone(), &opts).unwrap_or_else(|e| fail(&e.to_string()));
             let (params, points) = (fitted.fit.params.clone(), fitted.fit.points.clone());
             let surf =
                 s7_skinning::skin_region(fitted, tol).unwrap_or_else(|e| fail(&e.to_string()));

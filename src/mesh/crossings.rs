@@ -14,6 +14,7 @@
 use std::collections::HashMap;
 
 use super::Triangle;
+use crate::bspline::vecops::{dist, sub};
 
 type P3 = [f64; 3];
 
@@ -27,40 +28,37 @@ pub fn crossing_faces(faces: &[Triangle]) -> usize {
     if !(cell.is_finite() && cell > 0.0) {
         return 0;
     }
-    let key = |p: &P3| -> [i64; 3] { std::array::from_fn(|d| (p[d] / cell).floor() as i64) };
-    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    for (i, (lo, hi)) in boxes.iter().enumerate() {
+    // The grid cells a face's box covers.
+    let cells = |(lo, hi): &(P3, P3)| {
+        let key = |p: &P3| -> [i64; 3] { std::array::from_fn(|d| (p[d] / cell).floor() as i64) };
         let (a, b) = (key(lo), key(hi));
-        for x in a[0]..=b[0] {
-            for y in a[1]..=b[1] {
-                for z in a[2]..=b[2] {
-                    grid.entry([x, y, z]).or_default().push(i as u32);
-                }
-            }
+        (a[0]..=b[0]).flat_map(move |x| {
+            (a[1]..=b[1]).flat_map(move |y| (a[2]..=b[2]).map(move |z| [x, y, z]))
+        })
+    };
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    for (i, b) in boxes.iter().enumerate() {
+        for c in cells(b) {
+            grid.entry(c).or_default().push(i as u32);
         }
     }
     let mut crossing = vec![false; faces.len()];
     // The last face each candidate was tested against, so a pair is tested once per face.
     let mut seen = vec![u32::MAX; faces.len()];
-    for (i, (lo, hi)) in boxes.iter().enumerate() {
-        let (a, b) = (key(lo), key(hi));
-        for x in a[0]..=b[0] {
-            for y in a[1]..=b[1] {
-                for z in a[2]..=b[2] {
-                    for &j in &grid[&[x, y, z]] {
-                        let j = j as usize;
-                        if j <= i || seen[j] == i as u32 {
-                            continue;
-                        }
-                        seen[j] = i as u32;
-                        if boxes_overlap(&boxes[i], &boxes[j])
-                            && !share_vertex(&faces[i], &faces[j])
-                            && faces_cross(&faces[i], &faces[j])
-                        {
-                            crossing[i] = true;
-                            crossing[j] = true;
-                        }
-                    }
+    for (i, b) in boxes.iter().enumerate() {
+        for c in cells(b) {
+            for &j in &grid[&c] {
+                let j = j as usize;
+                if j <= i || seen[j] == i as u32 {
+                    continue;
+                }
+                seen[j] = i as u32;
+                if boxes_overlap(b, &boxes[j])
+                    && !share_vertex(&faces[i], &faces[j])
+                    && faces_cross(&faces[i], &faces[j])
+                {
+                    crossing[i] = true;
+                    crossing[j] = true;
                 }
             }
         }
@@ -128,15 +126,6 @@ fn orient(a: &P3, b: &P3, c: &P3, d: &P3) -> f64 {
     let (u, v, w) = (sub(b, a), sub(c, a), sub(d, a));
     u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
         + u[2] * (v[0] * w[1] - v[1] * w[0])
-}
-
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dist(a: &P3, b: &P3) -> f64 {
-    let d = sub(a, b);
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
 #[cfg(test)]
