@@ -1,24 +1,93 @@
 //! Counts a binary STL's faces that cross another face (`bskin::mesh::crossings`): the count
 //! stage 5 judges a lobe's walk by, for comparison with MeshLab's on the same file
-//! (`scripts/mesh_crossings.py`, which also splits it by surface).
+//! (`scripts/mesh_crossings.py`, which also splits it by surface). Given the run's
+//! `mesh.ply` too, it lists which surfaces cross which (from the ply's `comment surface ID
+//! faces FIRST COUNT` lines): per pair of surfaces, the faces of either that cross the other.
 //!
-//! Usage: `cargo run --release --example mesh_crossings -- MESH.stl`
+//! Usage: `cargo run --release --example mesh_crossings -- MESH.stl [MESH.ply [TOP]]`
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use bskin::mesh::crossings::crossing_faces;
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::BufRead;
+
+use bskin::mesh::crossings::crossing_pairs;
 use common::read_stl;
 
 fn main() {
-    let Some(path) = std::env::args().nth(1) else {
-        eprintln!("usage: mesh_crossings MESH.stl");
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(path) = args.first() else {
+        eprintln!("usage: mesh_crossings MESH.stl [MESH.ply [TOP]]");
         std::process::exit(2);
     };
-    let faces = read_stl(std::path::Path::new(&path));
+    let faces = read_stl(std::path::Path::new(path));
+    let pairs = crossing_pairs(&faces);
+    let crossing: BTreeSet<usize> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
     println!(
         "{path}: {} faces, {} crossing another",
         faces.len(),
-        crossing_faces(&faces)
+        crossing.len()
     );
+    let Some(ply) = args.get(1) else { return };
+    let top: usize = args
+        .get(2)
+        .map_or(30, |s| s.parse().expect("TOP is a count"));
+    let surface_of = surface_ranges(ply);
+    let of = |f: usize| {
+        let k = surface_of.partition_point(|&(_, first, _)| first <= f);
+        let (id, first, count) = surface_of[k - 1];
+        assert!(f < first + count, "face {f} in no surface of {ply}");
+        id
+    };
+    // Per unordered pair of surfaces, the distinct faces (of both) in a crossing between them.
+    let mut by_pair: BTreeMap<(usize, usize), BTreeSet<usize>> = BTreeMap::new();
+    for &(i, j) in &pairs {
+        let (a, b) = (of(i), of(j));
+        let faces = by_pair.entry((a.min(b), a.max(b))).or_default();
+        faces.insert(i);
+        faces.insert(j);
+    }
+    let own: usize = by_pair
+        .iter()
+        .filter(|((a, b), _)| a == b)
+        .map(|(_, f)| f.len())
+        .sum();
+    println!(
+        "{} surface pairs; faces in crossings of a surface with itself {own}, with another {}",
+        by_pair.len(),
+        by_pair
+            .iter()
+            .filter(|((a, b), _)| a != b)
+            .map(|(_, f)| f.len())
+            .sum::<usize>()
+    );
+    let mut rows: Vec<_> = by_pair.into_iter().map(|(k, f)| (f.len(), k)).collect();
+    rows.sort_by(|a, b| b.cmp(a));
+    for (n, (a, b)) in rows.into_iter().take(top) {
+        println!("{a:>6} {b:>6} {n:>7}");
+    }
+}
+
+/// `(surface id, first face, face count)` from a bskin `mesh.ply` header, by first face.
+fn surface_ranges(ply: &str) -> Vec<(usize, usize, usize)> {
+    let file = std::fs::File::open(ply).unwrap_or_else(|e| panic!("{ply}: {e}"));
+    let mut ranges = Vec::new();
+    for line in std::io::BufReader::new(file).split(b'\n') {
+        let line = String::from_utf8_lossy(&line.expect("readable ply")).into_owned();
+        if line.trim() == "end_header" {
+            break;
+        }
+        if let Some(rest) = line.trim().strip_prefix("comment surface ") {
+            let v: Vec<usize> = rest
+                .split_whitespace()
+                .filter_map(|w| w.parse().ok())
+                .collect();
+            if let [id, first, count] = v[..] {
+                ranges.push((id, first, count));
+            }
+        }
+    }
+    ranges.sort_by_key(|r| r.1);
+    ranges
 }

@@ -20,15 +20,25 @@ type P3 = [f64; 3];
 
 /// How many of `faces` properly cross another face that shares no vertex with them.
 pub fn crossing_faces(faces: &[Triangle]) -> usize {
+    let mut crossing = vec![false; faces.len()];
+    for (i, j) in crossing_pairs(faces) {
+        crossing[i] = true;
+        crossing[j] = true;
+    }
+    crossing.iter().filter(|&&c| c).count()
+}
+
+/// Every pair `(i, j)`, `i < j`, of `faces` that properly cross and share no vertex, in
+/// ascending `i` (to tell which surfaces of a mesh cross which).
+pub fn crossing_pairs(faces: &[Triangle]) -> Vec<(usize, usize)> {
     if faces.len() < 2 {
-        return 0;
+        return Vec::new();
     }
     let boxes: Vec<(P3, P3)> = faces.iter().map(bounds).collect();
     let cell = cell_size(faces);
     if !(cell.is_finite() && cell > 0.0) {
-        return 0;
+        return Vec::new();
     }
-    // The grid cells a face's box covers.
     let cells = |(lo, hi): &(P3, P3)| {
         let key = |p: &P3| -> [i64; 3] { std::array::from_fn(|d| (p[d] / cell).floor() as i64) };
         let (a, b) = (key(lo), key(hi));
@@ -42,8 +52,7 @@ pub fn crossing_faces(faces: &[Triangle]) -> usize {
             grid.entry(c).or_default().push(i as u32);
         }
     }
-    let mut crossing = vec![false; faces.len()];
-    // The last face each candidate was tested against, so a pair is tested once per face.
+    let mut pairs = Vec::new();
     let mut seen = vec![u32::MAX; faces.len()];
     for (i, b) in boxes.iter().enumerate() {
         for c in cells(b) {
@@ -57,16 +66,14 @@ pub fn crossing_faces(faces: &[Triangle]) -> usize {
                     && !share_vertex(&faces[i], &faces[j])
                     && faces_cross(&faces[i], &faces[j])
                 {
-                    crossing[i] = true;
-                    crossing[j] = true;
+                    pairs.push((i, j));
                 }
             }
         }
     }
-    crossing.iter().filter(|&&c| c).count()
+    pairs
 }
 
-/// Twice the median longest edge: most faces then fall in a few cells.
 fn cell_size(faces: &[Triangle]) -> f64 {
     let mut longest: Vec<f64> = faces
         .iter()
