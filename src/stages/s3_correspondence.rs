@@ -166,8 +166,7 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
     let (la, ua) = (arrange(&lo), arrange(&up));
     let m = lo.len();
     // Union–find over lower contours 0..m and upper contours m..m+n.
-    let mut uf = UnionFind::new(m + up.len());
-    let mut linked = vec![false; m + up.len()];
+    let mut overlapping: Vec<(usize, usize)> = Vec::new();
     for i in 0..m {
         let hole_i = lower.contours[i].hole;
         for j in 0..up.len() {
@@ -201,11 +200,38 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
                 )
             };
             if overlap {
-                uf.union(i, m + j);
-                linked[i] = true;
-                linked[m + j] = true;
+                overlapping.push((i, j));
             }
         }
+    }
+    // An island in a hole overlaps the material its enclosing contour links to wherever it
+    // touches the wall on the other section. Linked, the two nested contours would make one
+    // branching of overlapping pieces, whose intermediate contours fill the hole between
+    // them; so while that hole goes on across (it is not joined into its contour by a
+    // keyhole, which would take the island outside it), the island is not linked there and
+    // caps, as a cavity inside the material does.
+    let across = |lower_side: bool, h: usize| {
+        overlapping
+            .iter()
+            .any(|&(i, j)| if lower_side { i == h } else { j == h })
+    };
+    let shadowed = |&(i, j): &(usize, usize)| {
+        enclosing(&la.parent, &lower.contours, i)
+            .any(|(h, a)| across(true, h) && overlapping.contains(&(a, j)))
+            || enclosing(&ua.parent, &upper.contours, j)
+                .any(|(h, b)| across(false, h) && overlapping.contains(&(i, b)))
+    };
+    let kept: Vec<(usize, usize)> = overlapping
+        .iter()
+        .copied()
+        .filter(|p| !shadowed(p))
+        .collect();
+    let mut uf = UnionFind::new(m + up.len());
+    let mut linked = vec![false; m + up.len()];
+    for (i, j) in kept {
+        uf.union(i, m + j);
+        linked[i] = true;
+        linked[m + j] = true;
     }
     let mut problems = Vec::new();
     // Components in order of their smallest member: deterministic.
@@ -468,6 +494,22 @@ fn end_caps(section: &Section, side: Side) -> Vec<Problem> {
 }
 
 /// The holes of contour `k` (its children in the nesting tree).
+/// The contours enclosing contour `k` of the same kind as `k`, each with the contour of the
+/// other kind just inside it on the way to `k`: for an island in a hole, the outer contour
+/// round that hole and the hole.
+fn enclosing<'a>(
+    parent: &'a [Option<usize>],
+    contours: &'a [crate::section::Contour],
+    k: usize,
+) -> impl Iterator<Item = (usize, usize)> + 'a {
+    let ancestors = std::iter::successors(parent[k], move |&a| parent[a]);
+    let kind = |c: usize| contours[c].hole;
+    ancestors
+        .clone()
+        .zip(ancestors.skip(1))
+        .filter(move |&(h, a)| kind(a) == kind(k) && kind(h) != kind(k))
+}
+
 fn holes_of<'a>(pts: &[&'a [Point]], arr: &Arranged, k: usize) -> Vec<&'a [Point]> {
     (0..pts.len())
         .filter(|&h| arr.parent[h] == Some(k))
@@ -666,6 +708,101 @@ mod tests {
                 problems.as_slice(),
                 [Problem::Link { .. }, Problem::Cap { outer: None, .. }]
             ),
+            "{problems:?}"
+        );
+    }
+
+    #[test]
+    fn an_island_touching_the_wall_beyond_caps_rather_than_branch_with_its_contour() {
+        // A block with a cavity and an island (x 10–14) in the cavity; the next section's
+        // cavity has shrunk (from x 15), so the island lies over the wall there.
+        let with_island = |index, hole_from: f64| {
+            section(
+                index,
+                vec![
+                    (rect(0.0, 0.0, 40.0, 20.0), false),
+                    (rect(hole_from, 3.0, 35.0, 17.0), true),
+                    (rect(10.0, 8.0, 14.0, 12.0), false),
+                ],
+            )
+        };
+        let walled = |index| {
+            section(
+                index,
+                vec![
+                    (rect(0.0, 0.0, 40.0, 20.0), false),
+                    (rect(15.0, 3.0, 35.0, 17.0), true),
+                ],
+            )
+        };
+        let lower = with_island(0, 5.0);
+        let problems = correspond(&lower, &walled(1), &[]);
+        assert_eq!(
+            problems,
+            vec![
+                Problem::Link {
+                    hole: false,
+                    lower: 0,
+                    upper: 0
+                },
+                Problem::Link {
+                    hole: true,
+                    lower: 1,
+                    upper: 1
+                },
+                Problem::Cap {
+                    side: Side::Above,
+                    outer: Some(2),
+                    holes: vec![]
+                },
+            ]
+        );
+        // The other way up, the island caps below.
+        let problems = correspond(&walled(0), &with_island(1, 5.0), &[]);
+        assert!(
+            problems.contains(&Problem::Cap {
+                side: Side::Below,
+                outer: Some(2),
+                holes: vec![]
+            }),
+            "{problems:?}"
+        );
+        // An island over an island still links to it.
+        let problems = correspond(&lower, &with_island(1, 5.0), &[]);
+        assert!(
+            problems.contains(&Problem::Link {
+                hole: false,
+                lower: 2,
+                upper: 2
+            }),
+            "{problems:?}"
+        );
+        // Where the hole closes into a bay on the other section, it joins its contour in a
+        // keyhole, which leaves the island outside: the island branches with the contour.
+        let closing = section(
+            1,
+            vec![
+                (rect(0.0, 0.0, 40.0, 20.0), false),
+                (rect(6.0, 4.0, 34.0, 17.0), true),
+                (rect(7.0, 5.0, 9.0, 7.0), false),
+            ],
+        );
+        let problems = correspond(&section(0, vec![(bay(), false)]), &closing, &[]);
+        assert!(
+            matches!(problems.as_slice(), [Problem::Branch { lower, upper, upper_joined, .. }]
+                if lower == &vec![0] && upper == &vec![0, 2] && upper_joined[0].holes == vec![1]),
+            "{problems:?}"
+        );
+        // And where the enclosing contour does not reach the piece over the island (the
+        // block ends there but for that piece), the island goes on as that piece.
+        let piece = section(1, vec![(rect(9.0, 7.0, 15.0, 13.0), false)]);
+        let problems = correspond(&lower, &piece, &[]);
+        assert!(
+            problems.contains(&Problem::Link {
+                hole: false,
+                lower: 2,
+                upper: 0
+            }),
             "{problems:?}"
         );
     }
