@@ -21,7 +21,7 @@ use crate::io::cad::CadMeta;
 use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
 use crate::mesh::{tessellate_each, Triangle};
-use crate::region::CurveOrigin;
+use crate::region::{CurveOrigin, RegionCurve};
 use crate::{Error, Result};
 
 pub const STAGE: &str = "write";
@@ -47,16 +47,36 @@ fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
     }
 }
 
-pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
-    let slices: Vec<usize> = s
-        .region
-        .curves
+/// The first and last slice of a region's contours and keyhole loops; for a region with
+/// neither (between intermediate contours only), the slices its intermediate contours lie
+/// between.
+fn slice_span(curves: &[RegionCurve]) -> [usize; 2] {
+    let own: Vec<usize> = curves
         .iter()
         .filter_map(|c| match c.origin {
-            CurveOrigin::Contour { slice, .. } => Some(slice),
+            CurveOrigin::Contour { slice, .. } | CurveOrigin::Keyhole { slice } => Some(slice),
             _ => None,
         })
         .collect();
+    let slices = if own.is_empty() {
+        curves
+            .iter()
+            .flat_map(|c| match c.origin {
+                CurveOrigin::Intermediate { below, above } => vec![below, above],
+                CurveOrigin::Cap { slice } => vec![slice],
+                _ => Vec::new(),
+            })
+            .collect()
+    } else {
+        own
+    };
+    [
+        slices.iter().min().copied().unwrap_or(0),
+        slices.iter().max().copied().unwrap_or(0),
+    ]
+}
+
+pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
     SurfaceReport {
         id: s.region.id,
         kind: if s.region.hole { "hole" } else { "outer" },
@@ -66,10 +86,7 @@ pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
             s.surface.v_knots().knots().len(),
         ],
         curves: s.region.curves.len(),
-        slices: [
-            slices.iter().min().copied().unwrap_or(0),
-            slices.iter().max().copied().unwrap_or(0),
-        ],
+        slices: slice_span(&s.region.curves),
         input_points: s.region.input_points(),
         certified_points: s.error.points,
         max_error_mm: s.error.max_mm,
@@ -266,4 +283,44 @@ pub fn write_report(out_dir: &Path, report: &Report) -> Result<PathBuf> {
     })?;
     f.commit()?;
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn curve(origin: CurveOrigin) -> RegionCurve {
+        RegionCurve {
+            points: vec![[0.0; 3]],
+            origin,
+        }
+    }
+
+    #[test]
+    fn slice_span_is_the_contours_and_keyholes_else_the_intermediate_planes() {
+        use CurveOrigin::*;
+        let linked = [
+            curve(Intermediate { below: 8, above: 9 }),
+            curve(Contour {
+                slice: 9,
+                contour: 0,
+            }),
+            curve(Contour {
+                slice: 10,
+                contour: 2,
+            }),
+            curve(Cap { slice: 10 }),
+        ];
+        assert_eq!(slice_span(&linked), [9, 10]);
+        let into_keyhole = [
+            curve(Intermediate { below: 3, above: 4 }),
+            curve(Keyhole { slice: 4 }),
+        ];
+        assert_eq!(slice_span(&into_keyhole), [4, 4]);
+        let between_branchings = [
+            curve(Intermediate { below: 3, above: 4 }),
+            curve(Intermediate { below: 4, above: 5 }),
+        ];
+        assert_eq!(slice_span(&between_branchings), [3, 5]);
+    }
 }
