@@ -20,7 +20,7 @@ use crate::geometry::contours::nesting;
 use crate::geometry::keyhole::{search_step, slits, Slit};
 use crate::geometry::overlap::{overlap_area, regions_overlap, Region as Material};
 use crate::geometry::polygon::{bbox, signed_area, Point};
-use crate::section::Section;
+use crate::section::{Contour, Section};
 use crate::{Error, Result};
 
 pub const STAGE: &str = "correspondence";
@@ -165,7 +165,6 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
     let up: Vec<&[Point]> = up_owned.iter().map(|p| p.as_slice()).collect();
     let (la, ua) = (arrange(&lo), arrange(&up));
     let m = lo.len();
-    // Union–find over lower contours 0..m and upper contours m..m+n.
     let mut overlapping: Vec<(usize, usize)> = Vec::new();
     for i in 0..m {
         let hole_i = lower.contours[i].hole;
@@ -226,6 +225,7 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
         .copied()
         .filter(|p| !shadowed(p))
         .collect();
+    // Union–find over lower contours 0..m and upper contours m..m+n.
     let mut uf = UnionFind::new(m + up.len());
     let mut linked = vec![false; m + up.len()];
     for (i, j) in kept {
@@ -493,13 +493,12 @@ fn end_caps(section: &Section, side: Side) -> Vec<Problem> {
     caps(section, &arr, &vec![true; pts.len()], side)
 }
 
-/// The holes of contour `k` (its children in the nesting tree).
 /// The contours enclosing contour `k` of the same kind as `k`, each with the contour of the
 /// other kind just inside it on the way to `k`: for an island in a hole, the outer contour
 /// round that hole and the hole.
 fn enclosing<'a>(
     parent: &'a [Option<usize>],
-    contours: &'a [crate::section::Contour],
+    contours: &'a [Contour],
     k: usize,
 ) -> impl Iterator<Item = (usize, usize)> + 'a {
     let ancestors = std::iter::successors(parent[k], move |&a| parent[a]);
@@ -510,6 +509,7 @@ fn enclosing<'a>(
         .filter(move |&(h, a)| kind(a) == kind(k) && kind(h) != kind(k))
 }
 
+/// The holes of contour `k` (its children in the nesting tree).
 fn holes_of<'a>(pts: &[&'a [Point]], arr: &Arranged, k: usize) -> Vec<&'a [Point]> {
     (0..pts.len())
         .filter(|&h| arr.parent[h] == Some(k))
@@ -623,7 +623,7 @@ fn end_transition(section: &Arc<Section>, side: Side, spacing: f64) -> Transitio
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::section::{Contour, SliceFrame, SliceSource};
+    use crate::section::{SliceFrame, SliceSource};
 
     fn section(index: usize, contours: Vec<(Vec<Point>, bool)>) -> Section {
         Section {
@@ -716,12 +716,12 @@ mod tests {
     fn an_island_touching_the_wall_beyond_caps_rather_than_branch_with_its_contour() {
         // A block with a cavity and an island (x 10–14) in the cavity; the next section's
         // cavity has shrunk (from x 15), so the island lies over the wall there.
-        let with_island = |index, hole_from: f64| {
+        let with_island = |index| {
             section(
                 index,
                 vec![
                     (rect(0.0, 0.0, 40.0, 20.0), false),
-                    (rect(hole_from, 3.0, 35.0, 17.0), true),
+                    (rect(5.0, 3.0, 35.0, 17.0), true),
                     (rect(10.0, 8.0, 14.0, 12.0), false),
                 ],
             )
@@ -735,7 +735,7 @@ mod tests {
                 ],
             )
         };
-        let lower = with_island(0, 5.0);
+        let lower = with_island(0);
         let problems = correspond(&lower, &walled(1), &[]);
         assert_eq!(
             problems,
@@ -758,7 +758,7 @@ mod tests {
             ]
         );
         // The other way up, the island caps below.
-        let problems = correspond(&walled(0), &with_island(1, 5.0), &[]);
+        let problems = correspond(&walled(0), &with_island(1), &[]);
         assert!(
             problems.contains(&Problem::Cap {
                 side: Side::Below,
@@ -768,7 +768,7 @@ mod tests {
             "{problems:?}"
         );
         // An island over an island still links to it.
-        let problems = correspond(&lower, &with_island(1, 5.0), &[]);
+        let problems = correspond(&lower, &with_island(1), &[]);
         assert!(
             problems.contains(&Problem::Link {
                 hole: false,
