@@ -757,26 +757,23 @@ mod tests {
                 },
             ]
         );
+        let holds = |problems: Vec<Problem>, p: Problem| {
+            assert!(problems.contains(&p), "{p:?} not in {problems:?}")
+        };
+        let link = |lower, upper| Problem::Link {
+            hole: false,
+            lower,
+            upper,
+        };
         // The other way up, the island caps below.
-        let problems = correspond(&walled(0), &with_island(1), &[]);
-        assert!(
-            problems.contains(&Problem::Cap {
-                side: Side::Below,
-                outer: Some(2),
-                holes: vec![]
-            }),
-            "{problems:?}"
-        );
+        let cap = Problem::Cap {
+            side: Side::Below,
+            outer: Some(2),
+            holes: vec![],
+        };
+        holds(correspond(&walled(0), &with_island(1), &[]), cap);
         // An island over an island still links to it.
-        let problems = correspond(&lower, &with_island(1), &[]);
-        assert!(
-            problems.contains(&Problem::Link {
-                hole: false,
-                lower: 2,
-                upper: 2
-            }),
-            "{problems:?}"
-        );
+        holds(correspond(&lower, &with_island(1), &[]), link(2, 2));
         // Where the hole closes into a bay on the other section, it joins its contour in a
         // keyhole, which leaves the island outside: the island branches with the contour.
         let closing = section(
@@ -796,15 +793,7 @@ mod tests {
         // And where the enclosing contour does not reach the piece over the island (the
         // block ends there but for that piece), the island goes on as that piece.
         let piece = section(1, vec![(rect(9.0, 7.0, 15.0, 13.0), false)]);
-        let problems = correspond(&lower, &piece, &[]);
-        assert!(
-            problems.contains(&Problem::Link {
-                hole: false,
-                lower: 2,
-                upper: 0
-            }),
-            "{problems:?}"
-        );
+        holds(correspond(&lower, &piece, &[]), link(2, 0));
     }
 
     #[test]
