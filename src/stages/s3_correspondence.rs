@@ -10,6 +10,7 @@
 //! Only two sections are alive here at a time; each leaves inside the transitions that need
 //! it and is dropped after the next one arrives.
 
+use std::collections::HashSet;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -209,16 +210,16 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
     // them; so while that hole goes on across (it is not joined into its contour by a
     // keyhole, which would take the island outside it), the island is not linked there and
     // caps, as a cavity inside the material does.
-    let across = |lower_side: bool, h: usize| {
-        overlapping
-            .iter()
-            .any(|&(i, j)| if lower_side { i == h } else { j == h })
-    };
+    let pairs: HashSet<(usize, usize)> = overlapping.iter().copied().collect();
+    let (mut goes_on_lower, mut goes_on_upper) = (vec![false; m], vec![false; up.len()]);
+    for &(i, j) in &overlapping {
+        (goes_on_lower[i], goes_on_upper[j]) = (true, true);
+    }
     let shadowed = |&(i, j): &(usize, usize)| {
         enclosing(&la.parent, &lower.contours, i)
-            .any(|(h, a)| across(true, h) && overlapping.contains(&(a, j)))
+            .any(|(h, a)| goes_on_lower[h] && pairs.contains(&(a, j)))
             || enclosing(&ua.parent, &upper.contours, j)
-                .any(|(h, b)| across(false, h) && overlapping.contains(&(i, b)))
+                .any(|(h, b)| goes_on_upper[h] && pairs.contains(&(i, b)))
     };
     let kept: Vec<(usize, usize)> = overlapping
         .iter()
