@@ -137,11 +137,8 @@ pub fn tessellate_each(
             })
             .collect()
     };
-    let mut push = |t: Triangle| {
-        if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
-            emit(t);
-        }
-    };
+    let mut fins = DropFins::new(&mut emit);
+    let mut push = |t: Triangle| fins.push(t);
     let mut lower = row(vs[1]);
     let frame = SliceFrame::of_loop(&lower);
     let mut folds = Folds::default();
@@ -159,7 +156,44 @@ pub fn tessellate_each(
         lower = upper;
     }
     zip_end(&us, &top, &lower, true, &mut push);
+    fins.finish();
     folds
+}
+
+/// The triangles passed on, but none with two corners equal, and no pair of consecutive
+/// triangles that are one triangle each way round: where a loop runs out to a spur's tip
+/// and back and both passes fan from one row vertex, the zip makes such a fin, of no area
+/// and with its edges used four times. Dropping the pair leaves the edges either side their
+/// one use each way, and the tip out of the mesh. A triangle is held back one step for this.
+struct DropFins<F: FnMut(Triangle)> {
+    emit: F,
+    held: Option<Triangle>,
+}
+
+impl<F: FnMut(Triangle)> DropFins<F> {
+    fn new(emit: F) -> Self {
+        DropFins { emit, held: None }
+    }
+
+    fn push(&mut self, t: Triangle) {
+        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+            return;
+        }
+        match self.held.take() {
+            Some(h) if (0..3).any(|k| t == [h[k], h[(k + 2) % 3], h[(k + 1) % 3]]) => {}
+            Some(h) => {
+                (self.emit)(h);
+                self.held = Some(t);
+            }
+            None => self.held = Some(t),
+        }
+    }
+
+    fn finish(mut self) {
+        if let Some(h) = self.held.take() {
+            (self.emit)(h);
+        }
+    }
 }
 
 /// 1 at s = 0 falling to 0 at s = 1 (and beyond) with zero slope at both: a smoothstep.
@@ -651,4 +685,35 @@ fn cross(a: &P3, b: &P3) -> P3 {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn passed(input: &[Triangle]) -> Vec<Triangle> {
+        let mut out = Vec::new();
+        let mut fins = DropFins::new(|t| out.push(t));
+        for &t in input {
+            fins.push(t);
+        }
+        fins.finish();
+        out
+    }
+
+    #[test]
+    fn a_fin_is_dropped_and_everything_else_passes_in_order() {
+        let (a, b, c, d) = ([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]);
+        // A fan from a over b, the spur's tip c and back to b, then on to d.
+        assert_eq!(
+            passed(&[[a, d, b], [a, b, c], [b, a, c], [a, b, d]]),
+            vec![[a, d, b], [a, b, d]]
+        );
+        // The same triangle twice the same way round is not a fin; a degenerate one goes.
+        assert_eq!(
+            passed(&[[a, b, c], [a, b, c], [a, a, d], [c, b, d]]),
+            vec![[a, b, c], [a, b, c], [c, b, d]]
+        );
+        assert!(passed(&[]).is_empty());
+    }
 }
