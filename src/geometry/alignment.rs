@@ -21,8 +21,10 @@
 //! A start fixes the join at one point only; along the loop, equal fractions drift apart
 //! wherever one loop is longer than the next (wiggles, a bump, a lobe). [`chord_warps`]
 //! measures that drift by nearest points and, where it folds the surface, bends the
-//! parameters of the next loop by a smooth map that takes it out (Algorithm 2 then fits the
-//! loop's points at those parameters: `bspline::fit_common_warped`).
+//! parameters of the next loop by a smooth map that takes it out, or by the matching of the
+//! two loops that joins them by the shortest rulings (dynamic time warping), whichever folds
+//! less (Algorithm 2 then fits the loop's points at those parameters:
+//! `bspline::fit_common_warped`).
 
 use super::polygon::{proper_crossings, Point};
 
@@ -219,10 +221,12 @@ const WARP_BLENDS: [f64; 3] = [0.25, 0.5, 0.75];
 /// skull's surface 110: two loops within 1 mm of each other almost everywhere, joined up to
 /// 2.6 % of 500 mm apart). Each loop's nearest points on the next give the drift; a smooth
 /// map (the identity plus [`WARP_HARMONICS`] harmonics vanishing at the start, fitted with
-/// Huber weights so a lobe that one loop lacks does not pull it) takes it out. A warp is
-/// kept only where it stays within [`WARP_MAX_SPEED`] of chord length both ways and the
-/// blends of the two loops cross themselves less than without it; otherwise the next loop
-/// keeps its chord-length relation to this one.
+/// Huber weights so a lobe that one loop lacks does not pull it) takes it out. Where the
+/// drift is too sharp for that (a slit or an inlet of one loop beside a bump of the other),
+/// the matching of the loops' samples by the shortest rulings ([`matched_warp`]) follows it.
+/// A warp is kept only where it stays within [`WARP_MAX_SPEED`] of chord length both ways
+/// and the blends of the two loops cross themselves less than without it; otherwise the
+/// next loop keeps its chord-length relation to this one.
 pub fn chord_warps(loops: &[Option<Vec<Point>>]) -> Vec<Option<Vec<f64>>> {
     let n = loops.len();
     let identity: Vec<f64> = (0..=WARP_TABLE)
@@ -253,24 +257,39 @@ pub fn chord_warps(loops: &[Option<Vec<Point>>]) -> Vec<Option<Vec<f64>>> {
         .collect()
 }
 
-/// φ(s) = s + Σ_m a_m (cos 2πms − 1) + b_m sin 2πms: loop `b`'s fraction matching loop `a`'s
-/// fraction s. `coef` holds a_1, b_1, a_2, b_2, … (see [`harmonics`]).
-struct Warp {
-    coef: Vec<f64>,
+/// Loop `b`'s fraction φ(s) matching loop `a`'s fraction s.
+enum Warp {
+    /// φ(s) = s + Σ_m a_m (cos 2πms − 1) + b_m sin 2πms, the slow drift. `coef` holds a_1,
+    /// b_1, a_2, b_2, … (see [`harmonics`]).
+    Harmonic { coef: Vec<f64> },
+    /// φ(i / n) = `table[i]`, linear between: the matching of [`matched_warp`].
+    Matched { table: Vec<f64> },
 }
 
 impl Warp {
     fn at(&self, s: f64) -> f64 {
-        let offset: f64 = harmonics(s)
-            .zip(self.coef.chunks(2))
-            .map(|((_, sin, cos), c)| c[0] * (cos - 1.0) + c[1] * sin)
-            .sum();
-        (s + offset).clamp(0.0, 1.0)
+        match self {
+            Warp::Harmonic { coef } => {
+                let offset: f64 = harmonics(s)
+                    .zip(coef.chunks(2))
+                    .map(|((_, sin, cos), c)| c[0] * (cos - 1.0) + c[1] * sin)
+                    .sum();
+                (s + offset).clamp(0.0, 1.0)
+            }
+            Warp::Matched { table } => {
+                let n = table.len() - 1;
+                let x = s.clamp(0.0, 1.0) * n as f64;
+                let i = (x.floor() as usize).min(n - 1);
+                table[i] + (x - i as f64) * (table[i + 1] - table[i])
+            }
+        }
     }
 
-    fn speed(&self, s: f64) -> f64 {
+    /// dφ/ds of a harmonic warp (a matched one's lies within [`WARP_MAX_SPEED`] by
+    /// construction).
+    fn speed(coef: &[f64], s: f64) -> f64 {
         1.0 + harmonics(s)
-            .zip(self.coef.chunks(2))
+            .zip(coef.chunks(2))
             .map(|((w, sin, cos), c)| w * (c[1] * cos - c[0] * sin))
             .sum::<f64>()
     }
@@ -286,17 +305,41 @@ fn harmonics(s: f64) -> impl Iterator<Item = (f64, f64, f64)> {
     })
 }
 
-/// The warp from loop `a` to loop `b` (see [`chord_warps`]), if it is kept.
+/// The warp from loop `a` to loop `b` (see [`chord_warps`]), if it is kept: of the harmonic
+/// warp (the drift's slow part) and the matched one ([`matched_warp`], which also follows a
+/// feature one loop has and the other lacks), the one whose blends cross themselves least,
+/// if fewer times than chord length's; on a tie the harmonic one.
 fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
     let n = WARP_SAMPLES;
     let (la, lb) = (Loop::new(a, 0), Loop::new(b, 0));
     let (sa, sb) = (la.samples(n), lb.samples(n));
-    let crossings = |other: &[Point]| blends_crossing(&sa, other);
+    let crossings = |warp: &Warp| {
+        // φ is increasing (its speed is positive), so its samples are in order along b.
+        let warped = lb.at_fractions((0..n).map(|i| warp.at(i as f64 / n as f64)));
+        blends_crossing(&sa, &warped)
+    };
     // Most loops join cleanly: nothing to measure.
-    let plain = crossings(&sb);
+    let plain = blends_crossing(&sa, &sb);
     if plain == 0 {
         return None;
     }
+    let mut best: Option<(usize, Warp)> = None;
+    for warp in [harmonic_warp(&sa, &sb), Some(matched_warp(&sa, &sb))]
+        .into_iter()
+        .flatten()
+    {
+        let c = crossings(&warp);
+        if c < best.as_ref().map_or(plain, |b| b.0) {
+            best = Some((c, warp));
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// The harmonic warp fitted to the drift of `sa`'s nearest samples on `sb` (both `n` samples
+/// by arc length), if its speed stays within [`WARP_MAX_SPEED`] of chord length both ways.
+fn harmonic_warp(sa: &[Point], sb: &[Point]) -> Option<Warp> {
+    let n = sa.len();
     // Drift: the fraction of b's nearest sample minus a's own, wrapped to (−½, ½].
     let drift: Vec<f64> = sa
         .iter()
@@ -309,17 +352,113 @@ fn warp_between(a: &[Point], b: &[Point]) -> Option<Warp> {
             d - d.round()
         })
         .collect();
-    let warp = fit_warp(&drift)?;
+    let coef = fit_warp(&drift)?;
     let speeds_ok = (0..n).all(|i| {
-        let v = warp.speed(i as f64 / n as f64);
+        let v = Warp::speed(&coef, i as f64 / n as f64);
         (1.0 / WARP_MAX_SPEED..=WARP_MAX_SPEED).contains(&v)
     });
-    if !speeds_ok {
-        return None;
+    speeds_ok.then_some(Warp::Harmonic { coef })
+}
+
+/// The matching of `sa`'s samples to `sb`'s (both `n` by arc length, started where they
+/// correspond) that joins them by the shortest rulings in all: dynamic time warping with
+/// the steps (1, 1), (1, 2) and (2, 1), so the match advances on both loops at every step
+/// and its speed lies within [`WARP_MAX_SPEED`] (= 2) of chord length both ways. Where one
+/// loop has a feature the other lacks (a slit, an inlet, a bump), the harmonic warp only
+/// smooths the drift out; the matching stays on the feature's near wall until both loops
+/// go on alike. Symmetric weights (a diagonal step counts its cell twice, a long step its
+/// skipped cell twice and its end once) keep it from favouring either step.
+fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
+    let n = sa.len();
+    let w = n + 1;
+    // Sample n is sample 0 again: the match closes on the start.
+    let d = |i: usize, j: usize| d2(sa[i % n], sb[j % n]).sqrt();
+    let mut cost = vec![f64::INFINITY; w * w];
+    // The step that reached each cell: k > 0 is (k, 1), k < 0 is (1, −k).
+    let mut step = vec![1i8; w * w];
+    cost[0] = 0.0;
+    let max = MATCH_MAX_STEP as usize;
+    for i in 1..w {
+        for j in 1..w {
+            let (mut best, mut how) = (f64::INFINITY, 1i8);
+            for k in 1..=max.min(i) {
+                let c = cost[(i - k) * w + j - 1]
+                    + d(i + 1 - k, j)
+                    + (0..k).map(|m| d(i - m, j)).sum::<f64>();
+                if c < best {
+                    (best, how) = (c, k as i8);
+                }
+            }
+            for k in 2..=max.min(j) {
+                let c = cost[(i - 1) * w + j - k]
+                    + d(i, j + 1 - k)
+                    + (0..k).map(|m| d(i, j - m)).sum::<f64>();
+                if c < best {
+                    (best, how) = (c, -(k as i8));
+                }
+            }
+            cost[i * w + j] = best;
+            step[i * w + j] = how;
+        }
     }
-    // φ is increasing (its speed is positive), so its samples are in order along b.
-    let warped = lb.at_fractions((0..n).map(|i| warp.at(i as f64 / n as f64)));
-    (crossings(&warped) < plain).then_some(warp)
+    // Walk back from (n, n): both indices fall at every step, so the path's vertices give
+    // φ at every i they visit, linear between.
+    let mut path = vec![(n, n)];
+    let (mut i, mut j) = (n, n);
+    while i > 0 || j > 0 {
+        let k = step[i * w + j];
+        (i, j) = if k > 0 {
+            (i - k as usize, j - 1)
+        } else {
+            (i - 1, j - (-k) as usize)
+        };
+        path.push((i, j));
+    }
+    path.reverse();
+    let mut table = vec![0.0; w];
+    for pair in path.windows(2) {
+        let ((i0, j0), (i1, j1)) = (pair[0], pair[1]);
+        for (i, t) in table.iter_mut().enumerate().take(i1 + 1).skip(i0) {
+            let f = (i - i0) as f64 / (i1 - i0) as f64;
+            *t = (j0 as f64 + f * (j1 - j0) as f64) / n as f64;
+        }
+    }
+    Warp::Matched {
+        table: smoothed(&table),
+    }
+}
+
+/// Longest step of a matching ([`matched_warp`]), in samples along one loop per sample
+/// along the other: the most it may speed up or slow down against chord length.
+const MATCH_MAX_STEP: i8 = 2;
+
+/// Half-width, in samples, of the box filter [`smoothed`] applies twice.
+const MATCH_SMOOTHING: usize = 8;
+
+/// `table` (φ at i / n, from 0 to 1) with its offset φ(s) − s averaged twice over
+/// 2 [`MATCH_SMOOTHING`] + 1 samples round the loop, then shifted back to φ(0) = 0. A
+/// matching's steps make φ's speed jump between ½, 1 and 2 from sample to sample; the
+/// parameters of a loop's points fitted on a common knot vector would follow those jumps
+/// with knots. An average of speeds within [½, 2] stays there, so φ stays increasing and
+/// within [`WARP_MAX_SPEED`], and the offset is periodic, so φ(1) = 1 still.
+fn smoothed(table: &[f64]) -> Vec<f64> {
+    let n = table.len() - 1;
+    let mut offset: Vec<f64> = (0..n).map(|i| table[i] - i as f64 / n as f64).collect();
+    let h = MATCH_SMOOTHING.min(n / 2);
+    for _ in 0..2 {
+        offset = (0..n)
+            .map(|i| {
+                (0..=2 * h)
+                    .map(|k| offset[(i + n + k - h) % n])
+                    .sum::<f64>()
+                    / (2 * h + 1) as f64
+            })
+            .collect();
+    }
+    let o0 = offset[0];
+    (0..=n)
+        .map(|i| (i as f64 / n as f64 + offset[i % n] - o0).clamp(0.0, 1.0))
+        .collect()
 }
 
 /// Proper self-crossings of the blends at t = ¼, ½, ¾ of two loops' samples paired in order.
@@ -339,7 +478,7 @@ fn blends_crossing(sa: &[Point], sb: &[Point]) -> usize {
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
 /// sampled at s = i / n.
-fn fit_warp(drift: &[f64]) -> Option<Warp> {
+fn fit_warp(drift: &[f64]) -> Option<Vec<f64>> {
     let n = drift.len();
     let m = 2 * WARP_HARMONICS;
     let rows: Vec<Vec<f64>> = (0..n)
@@ -376,7 +515,7 @@ fn fit_warp(drift: &[f64]) -> Option<Warp> {
             .map(|r| 1.0 / (r.abs() / scale).max(1.0))
             .collect();
     }
-    Some(Warp { coef })
+    Some(coef)
 }
 
 #[cfg(test)]
@@ -410,11 +549,41 @@ mod tests {
         assert_eq!(starts, vec![0, 30, 20]);
     }
 
+    /// Ripples just before the slot on one loop and just after it on the other: the drift
+    /// rises and falls back within 1.2 rad, too sharp for the harmonics to follow within
+    /// [`WARP_MAX_SPEED`]; the matching follows it.
+    #[test]
+    fn a_matching_takes_out_drift_too_sharp_for_the_harmonics() {
+        let (a, b) = (rippled(3.2..3.6), rippled(2.5..3.1));
+        assert_eq!(blend_crossings(&a, &b, None), 4);
+        let (sa, sb) = (
+            Loop::new(&a, 0).samples(WARP_SAMPLES),
+            Loop::new(&b, 0).samples(WARP_SAMPLES),
+        );
+        assert!(harmonic_warp(&sa, &sb).is_none());
+        let warps = chord_warps(&[Some(a.clone()), Some(b.clone())]);
+        let table = warps[1].as_ref().expect("a matched warp");
+        assert_eq!((table[0], table[WARP_TABLE]), (0.0, 1.0));
+        // Increasing, and within the speed bound (of a table 1024 long from one 512 long,
+        // linear between, so the bound holds for its steps too).
+        let unit = 1.0 / WARP_TABLE as f64;
+        assert!(table.windows(2).all(|w| {
+            let v = (w[1] - w[0]) / unit;
+            (1.0 / WARP_MAX_SPEED - 1e-9..=WARP_MAX_SPEED + 1e-9).contains(&v)
+        }));
+        assert_eq!(blend_crossings(&a, &b, Some(table)), 0);
+    }
+
     /// A disc of radius 30 with a slot 2 mm wide and 15 mm deep opposite its start; with
     /// `wiggle`, the arc from 3.5 to 4.3 rad (just past the slot) carries ripples (amplitude
     /// 1.5 mm, 24 of them), which add length there and nowhere else: the slot then lies at a
     /// smaller fraction of the loop.
     fn slotted(wiggle: bool) -> Vec<Point> {
+        rippled(if wiggle { 3.5..4.3 } else { 0.0..0.0 })
+    }
+
+    /// [`slotted`] with its ripples (96 per turn) on the arc `arc` (radians).
+    fn rippled(arc: std::ops::Range<f64>) -> Vec<Point> {
         let n = 4000;
         let tau = std::f64::consts::TAU;
         let mut out = Vec::new();
@@ -422,7 +591,7 @@ mod tests {
             let a = tau * k as f64 / n as f64;
             let off = (a - std::f64::consts::PI).abs();
             let r = if off < 1.0 / 30.0 { 15.0 } else { 30.0 };
-            let ripple = if wiggle && (3.5..4.3).contains(&a) {
+            let ripple = if arc.contains(&a) {
                 1.5 * (96.0 * a).sin().abs()
             } else {
                 0.0
