@@ -362,12 +362,13 @@ fn harmonic_warp(sa: &[Point], sb: &[Point]) -> Option<Warp> {
 
 /// The matching of `sa`'s samples to `sb`'s (both `n` by arc length, started where they
 /// correspond) that joins them by the shortest rulings in all: dynamic time warping with
-/// the steps (1, 1), (1, 2) and (2, 1), so the match advances on both loops at every step
-/// and its speed lies within [`WARP_MAX_SPEED`] (= 2) of chord length both ways. Where one
-/// loop has a feature the other lacks (a slit, an inlet, a bump), the harmonic warp only
-/// smooths the drift out; the matching stays on the feature's near wall until both loops
-/// go on alike. Symmetric weights (a diagonal step counts its cell twice, a long step its
-/// skipped cell twice and its end once) keep it from favouring either step.
+/// the steps (1, 1) and (k, 1), (1, k) for k up to [`MATCH_MAX_STEP`], so the match advances
+/// on both loops at every step and its speed lies within [`WARP_MAX_SPEED`] of chord length
+/// both ways. Where one loop has a feature the other lacks (a slit, an inlet, a bump), the
+/// harmonic warp only smooths the drift out; the matching stays on the feature's near wall
+/// until both loops go on alike. Symmetric weights (a step's cells along its long side
+/// count once each, its first one twice, so a step of k weighs k + 1) keep it from
+/// favouring any step.
 fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
     let n = sa.len();
     let w = n + 1;
@@ -429,8 +430,9 @@ fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
 }
 
 /// Longest step of a matching ([`matched_warp`]), in samples along one loop per sample
-/// along the other: the most it may speed up or slow down against chord length.
-const MATCH_MAX_STEP: i8 = 2;
+/// along the other: the most it may speed up or slow down against chord length. Longer
+/// steps (3, 5) followed more slits but folded more surfaces elsewhere (README).
+const MATCH_MAX_STEP: i8 = WARP_MAX_SPEED as i8;
 
 /// Half-width, in samples, of the box filter [`smoothed`] applies twice.
 const MATCH_SMOOTHING: usize = 8;
