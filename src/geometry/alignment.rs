@@ -206,7 +206,7 @@ const WARP_MAX_SPEED: f64 = 2.0;
 /// Entries of a warp table (fractions at common parameters j / WARP_TABLE, j = 0..=it).
 const WARP_TABLE: usize = 1024;
 /// Blend heights at which a warp must cross itself less than chord length does.
-const WARP_BLENDS: [f64; 3] = [0.25, 0.5, 0.75];
+const WARP_BLENDS: [f64; 5] = [1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0];
 
 /// Per loop of a region (bottom to top, 2-D in their common plane; `None` for a cap point),
 /// where the surface should meet it: `Some(table)` gives the loop's own chord-length
