@@ -463,7 +463,8 @@ fn smoothed(table: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Proper self-crossings of the blends at t = ¼, ½, ¾ of two loops' samples paired in order.
+/// Proper self-crossings of the blends at the [`WARP_BLENDS`] heights of two loops' samples
+/// paired in order.
 fn blends_crossing(sa: &[Point], sb: &[Point]) -> usize {
     WARP_BLENDS
         .iter()
