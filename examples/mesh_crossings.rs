@@ -10,7 +10,7 @@
 mod common;
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::io::BufRead;
+use std::io::{BufRead, Write};
 
 use bskin::mesh::crossings::crossing_pairs;
 use common::read_stl;
@@ -24,11 +24,11 @@ fn main() {
     let faces = read_stl(std::path::Path::new(path));
     let pairs = crossing_pairs(&faces);
     let crossing: BTreeSet<usize> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
-    println!(
+    say(format_args!(
         "{path}: {} faces, {} crossing another",
         faces.len(),
         crossing.len()
-    );
+    ));
     let Some(ply) = args.get(1) else { return };
     let top: usize = args
         .get(2)
@@ -53,7 +53,7 @@ fn main() {
         .filter(|((a, b), _)| a == b)
         .map(|(_, f)| f.len())
         .sum();
-    println!(
+    say(format_args!(
         "{} surface pairs; faces in crossings of a surface with itself {own}, with another {}",
         by_pair.len(),
         by_pair
@@ -61,11 +61,18 @@ fn main() {
             .filter(|((a, b), _)| a != b)
             .map(|(_, f)| f.len())
             .sum::<usize>()
-    );
+    ));
     let mut rows: Vec<_> = by_pair.into_iter().map(|(k, f)| (f.len(), k)).collect();
     rows.sort_by(|a, b| b.cmp(a));
     for (n, (a, b)) in rows.into_iter().take(top) {
-        println!("{a:>6} {b:>6} {n:>7}");
+        say(format_args!("{a:>6} {b:>6} {n:>7}"));
+    }
+}
+
+/// One line on stdout; a reader that has gone (`| head`) ends the program quietly.
+fn say(line: std::fmt::Arguments) {
+    if writeln!(std::io::stdout(), "{line}").is_err() {
+        std::process::exit(0);
     }
 }
 
