@@ -372,8 +372,12 @@ fn harmonic_warp(sa: &[Point], sb: &[Point]) -> Option<Warp> {
 fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
     let n = sa.len();
     let w = n + 1;
-    // Sample n is sample 0 again: the match closes on the start.
-    let d = |i: usize, j: usize| d2(sa[i % n], sb[j % n]).sqrt();
+    // Sample n is sample 0 again: the match closes on the start. Each distance is read by
+    // several steps, so they are computed once.
+    let dist: Vec<f64> = (0..w * w)
+        .map(|c| d2(sa[(c / w) % n], sb[(c % w) % n]).sqrt())
+        .collect();
+    let d = |i: usize, j: usize| dist[i * w + j];
     let mut cost = vec![f64::INFINITY; w * w];
     // The step that reached each cell: k > 0 is (k, 1), k < 0 is (1, −k).
     let mut step = vec![1i8; w * w];
