@@ -237,13 +237,17 @@ impl End {
         // loop runs out along a slit and back (a bridge between the pieces of a split zone,
         // see `geometry::bridges`) the nearest point of the curve is as often on the other
         // pass, and the zip would fan both passes from the same row vertex. The curve follows
-        // the loop at about its chord-length speed, so a step is expected at its share of the
-        // period and looked for within three times that, plus four sample spacings; the first
-        // point near u = 0, where the fit put it (a slit's base lies on both passes).
+        // the loop, so a step is expected at the edge's length along the curve and looked
+        // for within three times that, plus four sample spacings; the first point near
+        // u = 0, where the fit put it (a slit's base lies on both passes). Along the curve,
+        // not along u: a curve that stands still over a stretch of u while the other end
+        // fans (`geometry::alignment::fan_match`) takes no length there.
         let length: f64 = (0..m)
             .map(|i| dist2(&points[i], &points[(i + 1) % m]).sqrt())
             .sum();
-        let h = period / us.len() as f64;
+        let arc = Arc::new(us, &boundary, period);
+        let (curve_len, h) = (arc.total(), arc.total() / us.len() as f64);
+        let per_mm = curve_len / length.max(1e-300);
         // Each point's expected step from the previous one (point 0's from the last). Points
         // move on by at least a quarter of it, and keep a quarter of each later step as room
         // before the loop closes at t_0 + period: points that project past the close (onto
@@ -259,16 +263,15 @@ impl End {
         }
         let mut t = Vec::with_capacity(m + 1);
         for (i, p) in points.iter().enumerate() {
-            let expect = (length > 0.0).then(|| match i {
+            let expect = (length > 0.0 && curve_len > 0.0).then(|| match i {
                 // The loop's first point is the fitted curve's, at u = 0.
-                0 => (0.0, 4.0 * h, length / period),
-                _ => (
-                    t[i - 1] + steps[i],
-                    3.0 * steps[i] + 4.0 * h,
-                    length / period,
-                ),
+                0 => (0.0, 4.0 * h),
+                _ => {
+                    let edge = per_mm * dist2(&points[i], &points[i - 1]).sqrt();
+                    (arc.at(t[i - 1]) + edge, 3.0 * edge + 4.0 * h)
+                }
             });
-            let raw = project_u(s, us, &boundary, v, p, expect);
+            let raw = project_u(s, us, &boundary, &arc, v, p, expect);
             if i == 0 {
                 t.push(raw);
                 continue;
@@ -436,33 +439,79 @@ fn zip_end(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnMut(T
     }
 }
 
+/// Arc length along the closed polyline through an iso-curve's samples.
+struct Arc<'a> {
+    us: &'a [f64],
+    period: f64,
+    /// cum[k]: from sample 0 to sample k; cum[n]: round the whole loop.
+    cum: Vec<f64>,
+}
+
+impl<'a> Arc<'a> {
+    fn new(us: &'a [f64], samples: &[P3], period: f64) -> Self {
+        let n = samples.len();
+        let mut cum = Vec::with_capacity(n + 1);
+        cum.push(0.0);
+        for k in 0..n {
+            cum.push(cum[k] + dist2(&samples[k], &samples[(k + 1) % n]).sqrt());
+        }
+        Arc { us, period, cum }
+    }
+
+    fn total(&self) -> f64 {
+        self.cum[self.cum.len() - 1]
+    }
+
+    /// Arc length at parameter `u` (any real: whole turns add the total), linear between
+    /// samples.
+    fn at(&self, u: f64) -> f64 {
+        let (turns, w) = (u.div_euclid(self.period), u.rem_euclid(self.period));
+        let n = self.us.len();
+        let k = self.us.partition_point(|&x| x <= w).clamp(1, n) - 1;
+        let next = if k + 1 < n {
+            self.us[k + 1]
+        } else {
+            self.period
+        };
+        let f = if next > self.us[k] {
+            ((w - self.us[k]) / (next - self.us[k])).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        turns * self.total() + self.cum[k] + f * (self.cum[k + 1] - self.cum[k])
+    }
+}
+
 /// Parameter u of the closest point to `p` on the iso-curve S(·, v): nearest of the samples
-/// `us` (points `boundary`), then Newton on |C(u) − p|², kept within one sample spacing.
-/// With `expect` = (u_e, reach, mm_per_u), only samples within `reach` of u_e count, and each
-/// is scored by its distance plus half its distance from u_e along the curve (mm_per_u: the
-/// curve's mean speed): of two passes of the curve equally near `p`, the expected one wins.
+/// `us` (points `boundary`, arc lengths `arc`), then Newton on |C(u) − p|², kept within one
+/// sample spacing. With `expect` = (s_e, reach), only samples within `reach` of arc length
+/// s_e count, and each is scored by its distance plus half its distance from s_e along the
+/// curve: of two passes of the curve equally near `p`, the expected one wins.
 fn project_u(
     s: &SkinnedSurface,
     us: &[f64],
     boundary: &[P3],
+    arc: &Arc,
     v: f64,
     p: &P3,
-    expect: Option<(f64, f64, f64)>,
+    expect: Option<(f64, f64)>,
 ) -> f64 {
     let period = s.u_knots().period();
-    let mut best = (f64::INFINITY, expect.map_or(0.0, |e| e.0));
-    // Only the samples in reach are scored: `us` rises in [0, period), so they are one or
-    // two runs of it (the window may wrap round u = 0), visited in index order.
+    let total = arc.total();
+    let mut best = (f64::INFINITY, 0.0);
+    // Only the samples in reach are scored: arc lengths rise with the sample index, so they
+    // are one or two runs of it (the window may wrap round u = 0), visited in index order.
     let n = us.len();
+    let cum = &arc.cum[..n];
     let runs = match expect {
-        Some((ue, reach, _)) if 2.0 * reach < period => {
-            let lo = (ue - reach).rem_euclid(period);
+        Some((se, reach)) if 2.0 * reach < total => {
+            let lo = (se - reach).rem_euclid(total);
             let hi = lo + 2.0 * reach;
-            let first = us.partition_point(|&u| u < lo);
-            if hi < period {
-                [0..0, first..us.partition_point(|&u| u <= hi)]
+            let first = cum.partition_point(|&c| c < lo);
+            if hi < total {
+                [0..0, first..cum.partition_point(|&c| c <= hi)]
             } else {
-                [0..us.partition_point(|&u| u <= hi - period), first..n]
+                [0..cum.partition_point(|&c| c <= hi - total), first..n]
             }
         }
         _ => [0..0, 0..n],
@@ -470,16 +519,20 @@ fn project_u(
     for k in runs.into_iter().flatten() {
         let (u, q) = (us[k], &boundary[k]);
         let mut score = dist2(q, p).sqrt();
-        if let Some((ue, reach, speed)) = expect {
-            let du = (u - ue + 0.5 * period).rem_euclid(period) - 0.5 * period;
-            if du.abs() > reach {
+        if let Some((se, reach)) = expect {
+            let ds = (cum[k] - se + 0.5 * total).rem_euclid(total) - 0.5 * total;
+            if ds.abs() > reach {
                 continue;
             }
-            score += 0.5 * du.abs() * speed;
+            score += 0.5 * ds.abs();
         }
         if score < best.0 {
             best = (score, u);
         }
+    }
+    if best.0.is_infinite() {
+        // No sample within reach (samples far apart along the curve): the nearest of all.
+        return project_u(s, us, boundary, arc, v, p, None);
     }
     let h = period / us.len() as f64;
     let (u0, mut u) = (best.1, best.1);
