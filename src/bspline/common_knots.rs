@@ -100,6 +100,38 @@ pub fn fit_common_warped<const D: usize>(
     warps: &[Option<Vec<f64>>],
     opts: &FitOptions,
 ) -> Result<CommonFit<D>, BsplineError> {
+    fit_common_with(contours, warps, KnotRule::Average, opts)
+}
+
+/// [`fit_common_warped`] with the common domain knots placed by Eq. 5 on all the contours'
+/// parameters merged, not by averaging each contour's own. Where a warp stands a contour
+/// still over a stretch of the common parameter (a fan: `geometry::alignment::fan_match`),
+/// its own knots all fall outside that stretch, the average leaves the stretch a few wide
+/// spans, and the contour moving through it cannot be fitted (GE head surface 135: 14 mm off
+/// at every control-point count tried). Merged, the knots follow whichever contour moves.
+pub fn fit_common_fanned<const D: usize>(
+    contours: &[Vec<[f64; D]>],
+    warps: &[Option<Vec<f64>>],
+    opts: &FitOptions,
+) -> Result<CommonFit<D>, BsplineError> {
+    fit_common_with(contours, warps, KnotRule::Merged, opts)
+}
+
+/// How a trial's common domain knots come from the contours' parameters.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum KnotRule {
+    /// The average of each contour's own (paper §2.5).
+    Average,
+    /// Eq. 5 on every contour's parameters merged ([`fit_common_fanned`]).
+    Merged,
+}
+
+fn fit_common_with<const D: usize>(
+    contours: &[Vec<[f64; D]>],
+    warps: &[Option<Vec<f64>>],
+    rule: KnotRule,
+    opts: &FitOptions,
+) -> Result<CommonFit<D>, BsplineError> {
     opts.validate()?;
     let count = contours.len();
     if count == 0 {
@@ -159,7 +191,7 @@ pub fn fit_common_warped<const D: usize>(
     let mut best: Option<(PeriodicKnotVector, Vec<Option<ContourFit<D>>>)> = None;
     let cap = 4 * n_max;
     loop {
-        match trial(&mut items, now, &clist, opts, true)? {
+        match trial(&mut items, now, &clist, rule, opts, true)? {
             Trial::Ok(k, fits) => {
                 upp = now;
                 best = Some((k, fits));
@@ -190,7 +222,7 @@ pub fn fit_common_warped<const D: usize>(
     }
     let (knots, fits) = match best {
         Some(b) => b,
-        None => match trial(&mut items, n_max, &clist, opts, false)? {
+        None => match trial(&mut items, n_max, &clist, rule, opts, false)? {
             Trial::Ok(k, f) => (k, f),
             Trial::Failed(c) => {
                 return Err(BsplineError::Singular(format!(
@@ -265,6 +297,7 @@ fn trial<const D: usize>(
     items: &mut [Item<D>],
     n1: usize,
     clist: &[usize],
+    rule: KnotRule,
     opts: &FitOptions,
     early_exit: bool,
 ) -> Result<Trial<D>, BsplineError> {
@@ -308,8 +341,17 @@ fn trial<const D: usize>(
             }
         }
     }
-    let domain: Vec<f64> = sum.iter().map(|s| s / used as f64).collect();
-    let knots = PeriodicKnotVector::try_new(&domain)?;
+    let knots = match rule {
+        KnotRule::Average => {
+            let domain: Vec<f64> = sum.iter().map(|s| s / used as f64).collect();
+            PeriodicKnotVector::try_new(&domain)?
+        }
+        KnotRule::Merged => {
+            let mut merged: Vec<f64> = data.iter().flatten().flat_map(|d| &d.2).copied().collect();
+            merged.sort_by(f64::total_cmp);
+            knots_approximation(&merged, n1)?
+        }
+    };
     let dom = knots.domain();
     let mut fits: Vec<Option<ContourFit<D>>> = (0..items.len()).map(|_| None).collect();
     for &i in clist {
