@@ -24,7 +24,10 @@
 //! parameters of the next loop by a smooth map that takes it out, or by the matching of the
 //! two loops that joins them by the shortest rulings (dynamic time warping), whichever folds
 //! less (Algorithm 2 then fits the loop's points at those parameters:
-//! `bspline::fit_common_warped`).
+//! `bspline::fit_common_warped`). Where one loop has a whole lobe the other lacks, no join at
+//! bounded speed keeps the rulings apart; [`fan_tables`] then joins such loops by the
+//! shortest rulings with fans allowed (one loop standing still while the other goes round the
+//! lobe), each loop parameterised by the matching's own steps (`bspline::fit_common_fanned`).
 
 use super::polygon::{proper_crossings, Point};
 
@@ -88,20 +91,31 @@ pub fn align_starts(curves: &[&[[f64; 3]]], spacing: f64) -> Vec<usize> {
             continue;
         }
         let a = Loop::new(curves[k - 1], starts[k - 1]);
-        let b = Loop::new(curves[k], 0);
-        // Every shift at a coarse resolution, then the neighbourhood of the best at a fine one.
-        let n = COARSE_SAMPLES;
-        let coarse = best_shift(&a.samples(n), &b.samples(n), 0, n);
-        let length = a.length().max(b.length());
-        let fine =
-            ((length / spacing.max(1e-9)).ceil() as usize).clamp(COARSE_SAMPLES, FINE_SAMPLES);
-        let ratio = fine.div_ceil(COARSE_SAMPLES);
-        let centre = coarse * fine / COARSE_SAMPLES;
-        let (sa, sb) = (a.samples(fine), b.samples(fine));
-        let shift = best_shift(&sa, &sb, centre + fine - ratio, 2 * ratio + 1);
-        starts[k] = b.vertex_at(shift as f64 / fine as f64);
+        starts[k] = joining_start(&a, curves[k], spacing);
     }
     starts
+}
+
+/// Index of the point of loop `b` from which its chord-length join with `a` is closest (see
+/// the module doc), to `spacing` mm along the loops.
+fn joining_start<const D: usize>(a: &Loop<D>, b: &[[f64; D]], spacing: f64) -> usize {
+    let b = Loop::new(b, 0);
+    // Every shift at a coarse resolution, then the neighbourhood of the best at a fine one.
+    let n = COARSE_SAMPLES;
+    let coarse = best_shift(&a.samples(n), &b.samples(n), 0, n);
+    let length = a.length().max(b.length());
+    let fine = ((length / spacing.max(1e-9)).ceil() as usize).clamp(COARSE_SAMPLES, FINE_SAMPLES);
+    let ratio = fine.div_ceil(COARSE_SAMPLES);
+    let centre = coarse * fine / COARSE_SAMPLES;
+    let (sa, sb) = (a.samples(fine), b.samples(fine));
+    let shift = best_shift(&sa, &sb, centre + fine - ratio, 2 * ratio + 1);
+    b.vertex_at(shift as f64 / fine as f64)
+}
+
+/// [`joining_start`] of loop `b` after loop `a` (both in the plane, `a` from its first
+/// point), to the finest resolution the search takes.
+fn closest_join_start(a: &[Point], b: &[Point]) -> usize {
+    joining_start(&Loop::new(a, 0), b, 0.0)
 }
 
 /// Among the shifts `first, first + 1, … (count of them, modulo n)` of two loops' `n`
@@ -429,7 +443,7 @@ fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
         }
     }
     Warp::Matched {
-        table: smoothed(&table),
+        table: smoothed(&table, MATCH_SMOOTHING),
     }
 }
 
@@ -447,10 +461,10 @@ const MATCH_SMOOTHING: usize = 8;
 /// parameters of a loop's points fitted on a common knot vector would follow those jumps
 /// with knots. An average of speeds within [½, 2] stays there, so φ stays increasing and
 /// within [`WARP_MAX_SPEED`], and the offset is periodic, so φ(1) = 1 still.
-fn smoothed(table: &[f64]) -> Vec<f64> {
+fn smoothed(table: &[f64], half_width: usize) -> Vec<f64> {
     let n = table.len() - 1;
     let mut offset: Vec<f64> = (0..n).map(|i| table[i] - i as f64 / n as f64).collect();
-    let h = MATCH_SMOOTHING.min(n / 2);
+    let h = half_width.min(n / 2);
     for _ in 0..2 {
         offset = (0..n)
             .map(|i| {
@@ -481,6 +495,292 @@ fn blends_crossing(sa: &[Point], sb: &[Point]) -> usize {
             proper_crossings(&blend, usize::MAX)
         })
         .sum()
+}
+
+/// Whether the blends of two loops joined at equal chord-length fractions (both started at
+/// their first point) cross themselves: the only case in which [`chord_warps`] or
+/// [`fan_match`] has anything to take out.
+pub fn chord_join_folds(a: &[Point], b: &[Point]) -> bool {
+    if a.len() < 3 || b.len() < 3 {
+        return false;
+    }
+    let n = WARP_SAMPLES;
+    blends_crossing(&Loop::new(a, 0).samples(n), &Loop::new(b, 0).samples(n)) > 0
+}
+
+/// A join of two loops in which either may stand still while the other moves on: the
+/// matching of [`fan_match`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FanMatch {
+    /// Index of the point loop `b` starts at (loop `a` keeps its start).
+    pub start_b: usize,
+    /// The matched chord-length fractions (of `a`, and of `b` from `start_b`), from (0, 0)
+    /// to (1, 1), each step moving one loop or both by one sample.
+    pub path: Vec<(f64, f64)>,
+    /// Proper self-crossings of the matched samples' blends (as [`chord_warps`] counts).
+    pub blends: usize,
+}
+
+/// Starts of loop `b` tried by [`fan_match`], evenly spaced along it.
+const FAN_STARTS: usize = 16;
+
+/// The matching of two loops by the shortest rulings in all, where a ruling may fan: dynamic
+/// time warping of their [`WARP_SAMPLES`] samples with the steps (1, 1), (1, 0) and (0, 1),
+/// for each of [`FAN_STARTS`] starts of `b` (its own start among them), keeping the one whose
+/// blends cross themselves least (then the shorter rulings, then the earlier start). `None`
+/// for a loop of fewer than three points.
+///
+/// [`matched_warp`] bounds its speed, so that one loop's fractions stay a function of the
+/// other's; a lobe one loop has and the other lacks (GE head surface 135: a band of bone
+/// 250 mm round, beside an intermediate contour half its length) then has nowhere to go but
+/// along the rest of the loop, and the rulings cross wholesale. Here both loops are
+/// parameterised by the matching's own steps, so the lobe's walls fan onto the points the
+/// other loop has at its root, as a cap's walls fan onto its point. A matching with a bad
+/// start cannot recover (it is closed at both ends), hence the several starts.
+pub fn fan_match(a: &[Point], b: &[Point]) -> Option<FanMatch> {
+    if a.len() < 3 || b.len() < 3 {
+        return None;
+    }
+    let n = WARP_SAMPLES;
+    let sa = Loop::new(a, 0).samples(n);
+    let lb = Loop::new(b, 0);
+    let mut starts: Vec<usize> = (0..FAN_STARTS)
+        .map(|k| lb.vertex_at(k as f64 / FAN_STARTS as f64))
+        .collect();
+    starts.dedup();
+    let mut best: Option<(usize, f64, FanMatch)> = None;
+    for start in starts {
+        let sb = Loop::new(b, start).samples(n);
+        let (path, length) = fan_path(&sa, &sb);
+        let (pa, pb): (Vec<Point>, Vec<Point>) = path[..path.len() - 1]
+            .iter()
+            .map(|&(i, j)| (sa[i % n], sb[j % n]))
+            .unzip();
+        let blends = blends_crossing(&pa, &pb);
+        if best
+            .as_ref()
+            .is_none_or(|(c, l, _)| (blends, length) < (*c, *l))
+        {
+            let path = path
+                .iter()
+                .map(|&(i, j)| (i as f64 / n as f64, j as f64 / n as f64))
+                .collect();
+            best = Some((
+                blends,
+                length,
+                FanMatch {
+                    start_b: start,
+                    path,
+                    blends,
+                },
+            ));
+        }
+    }
+    best.map(|b| b.2)
+}
+
+/// A region's loops (bottom to top, `None` for a cap point) joined by [`fan_match`] where
+/// chord length folds the join ([`chord_join_folds`]), and at chord length elsewhere: where
+/// each loop should start, and its chord-length fraction at common parameters (tables as
+/// [`chord_warps`] gives them, but flat wherever the loop stands still while a neighbour
+/// fans). `None` where no join folds. Each fanned loop's start is chosen with the loop below it already started
+/// where its own join put it.
+///
+/// The joins are merged into one path through all the loops' fractions: at a fraction of
+/// loop k where the join below moves only loop k − 1 (or the one above only loop k + 1),
+/// that move comes first; where both joins move loop k on, they move together. So every
+/// join's rulings are kept, and each loop's fraction is a non-decreasing function of one
+/// common parameter, each step of which moves some loop by one sample.
+pub fn fan_tables(loops: &[Option<Vec<Point>>]) -> Option<RegionFans> {
+    let idx: Vec<usize> = (0..loops.len())
+        .filter(|&k| loops[k].as_ref().is_some_and(|l| l.len() >= 3))
+        .collect();
+    if idx.len() < 2 || idx.windows(2).any(|w| w[1] != w[0] + 1) {
+        return None;
+    }
+    let mut starts = vec![0usize; loops.len()];
+    let mut rotated: Vec<Vec<Point>> = vec![Vec::new(); loops.len()];
+    rotated[idx[0]] = loops[idx[0]].clone().unwrap_or_default();
+    // The merged path: per vertex, every loop's fraction so far (loops in `idx` order).
+    let mut merged: Vec<Vec<f64>> = vec![vec![0.0], vec![1.0]];
+    let mut any = false;
+    for w in idx.windows(2) {
+        let a = &rotated[w[0]];
+        let mut b = loops[w[1]].clone().unwrap_or_default();
+        // A loop a fan has started elsewhere takes the next with it (stage 5 had started
+        // that one where its chord-length join with this loop's old start was closest).
+        if starts[w[0]] != 0 {
+            starts[w[1]] = closest_join_start(a, &b);
+            b.rotate_left(starts[w[1]]);
+        }
+        let join = if chord_join_folds(a, &b) {
+            fan_match(a, &b)
+        } else {
+            None
+        };
+        let path = match join {
+            Some(m) => {
+                any = true;
+                b.rotate_left(m.start_b);
+                starts[w[1]] = (starts[w[1]] + m.start_b) % b.len();
+                m.path
+            }
+            None => vec![(0.0, 0.0), (1.0, 1.0)],
+        };
+        rotated[w[1]] = b;
+        merged = merge_join(&merged, &path);
+    }
+    if !any {
+        return None;
+    }
+    // The common parameter: each step counts its largest move in any loop.
+    let mut at = vec![0.0];
+    for v in merged.windows(2) {
+        let step = v[0]
+            .iter()
+            .zip(&v[1])
+            .map(|(x, y)| (y - x).abs())
+            .fold(0.0f64, f64::max);
+        at.push(at[at.len() - 1] + step);
+    }
+    let total = at[at.len() - 1];
+    let len = WARP_TABLE.max(2 * merged.len());
+    let mut tables: Vec<Option<Vec<f64>>> = vec![None; loops.len()];
+    for (c, &k) in idx.iter().enumerate() {
+        let mut p = 0;
+        let table = (0..=len)
+            .map(|m| {
+                let x = total * m as f64 / len as f64;
+                while p + 2 < at.len() && at[p + 1] <= x {
+                    p += 1;
+                }
+                let (x0, x1) = (at[p], at[p + 1]);
+                let t = if x1 > x0 {
+                    ((x - x0) / (x1 - x0)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let (f0, f1) = (merged[p][c], merged[p + 1][c]);
+                (f0 + t * (f1 - f0)).clamp(0.0, 1.0)
+            })
+            .collect();
+        tables[k] = Some(table);
+    }
+    Some(RegionFans { starts, tables })
+}
+
+/// A region's loops joined by fans ([`fan_tables`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegionFans {
+    /// Per loop: the index of the point it should start at (0 for a cap).
+    pub starts: Vec<usize>,
+    /// Per loop: its chord-length fraction at the common parameters j / (len − 1), as
+    /// [`chord_warps`] gives them (`None` for a cap).
+    pub tables: Vec<Option<Vec<f64>>>,
+}
+
+/// The path `merged` (vertices of every loop's fraction so far, the last loop last) joined
+/// with `join` (pairs of that last loop's fraction and the next loop's) into one path with
+/// the next loop's fraction appended (see [`fan_tables`]). Both rise from 0 to 1 in the
+/// shared fraction; between vertices it is linear in both.
+fn merge_join(merged: &[Vec<f64>], join: &[(f64, f64)]) -> Vec<Vec<f64>> {
+    let last = merged[0].len() - 1;
+    let mut out: Vec<Vec<f64>> = Vec::with_capacity(merged.len() + join.len());
+    let (mut a, mut b) = (0usize, 0usize);
+    let mut now: Vec<f64> = merged[0].iter().copied().chain([join[0].1]).collect();
+    out.push(now.clone());
+    while a + 1 < merged.len() || b + 1 < join.len() {
+        let x = now[last];
+        let next_a = merged.get(a + 1);
+        let next_b = join.get(b + 1);
+        match (next_a, next_b) {
+            // The path so far moves other loops at this fraction: they go first.
+            (Some(q), _) if q[last] <= x => {
+                now[..=last].copy_from_slice(q);
+                a += 1;
+            }
+            // The join moves the next loop alone here.
+            (_, Some(&(f, g))) if f <= x => {
+                now[last + 1] = g;
+                b += 1;
+            }
+            (Some(q), Some(&(f, g))) => {
+                // Both move the shared loop on: to whichever vertex comes first.
+                let y = q[last].min(f);
+                let (p, (f0, g0)) = (&merged[a], join[b]);
+                let ta = (y - p[last]) / (q[last] - p[last]);
+                for (c, v) in now[..=last].iter_mut().enumerate() {
+                    *v = p[c] + ta * (q[c] - p[c]);
+                }
+                now[last] = y;
+                now[last + 1] = g0 + (y - f0) / (f - f0) * (g - g0);
+                if q[last] <= y {
+                    now[..=last].copy_from_slice(q);
+                    a += 1;
+                }
+                if f <= y {
+                    now[last + 1] = g;
+                    b += 1;
+                }
+            }
+            // One path has ended (both end at fraction 1): the other's rest.
+            (Some(q), None) => {
+                now[..=last].copy_from_slice(q);
+                a += 1;
+            }
+            (None, Some(&(_, g))) => {
+                now[last + 1] = g;
+                b += 1;
+            }
+            (None, None) => break,
+        }
+        out.push(now.clone());
+    }
+    out
+}
+
+/// The path of the shortest rulings from sample pair (0, 0) to (n, n) (sample n is sample 0
+/// again) with the steps (1, 1), (1, 0), (0, 1), each cell's ruling counted once, and its
+/// total length. Ties go to the diagonal step, then to the step along `sa`.
+fn fan_path(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
+    let n = sa.len();
+    let w = n + 1;
+    let d = |i: usize, j: usize| d2(sa[i % n], sb[j % n]).sqrt();
+    let mut cost = vec![f64::INFINITY; w * w];
+    // The step that reached each cell: 0 diagonal, 1 along a (i − 1), 2 along b (j − 1).
+    let mut step = vec![0u8; w * w];
+    cost[0] = 0.0;
+    for i in 0..w {
+        for j in 0..w {
+            if i == 0 && j == 0 {
+                continue;
+            }
+            let mut best = (f64::INFINITY, 0u8);
+            if i > 0 && j > 0 {
+                best = (cost[(i - 1) * w + j - 1], 0);
+            }
+            if i > 0 && cost[(i - 1) * w + j] < best.0 {
+                best = (cost[(i - 1) * w + j], 1);
+            }
+            if j > 0 && cost[i * w + j - 1] < best.0 {
+                best = (cost[i * w + j - 1], 2);
+            }
+            cost[i * w + j] = best.0 + d(i, j);
+            step[i * w + j] = best.1;
+        }
+    }
+    let mut path = vec![(n, n)];
+    let (mut i, mut j) = (n, n);
+    while i > 0 || j > 0 {
+        (i, j) = match step[i * w + j] {
+            0 => (i - 1, j - 1),
+            1 => (i - 1, j),
+            _ => (i, j - 1),
+        };
+        path.push((i, j));
+    }
+    path.reverse();
+    (path, cost[w * w - 1])
 }
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
@@ -671,5 +971,68 @@ mod tests {
         let starts = baseline(&[&cap, &a]);
         assert_eq!(starts.len(), 2);
         assert_eq!(starts[0], 0);
+    }
+
+    /// A random lattice path from (0, 0) to (n, n) with the steps (1, 1), (1, 0), (0, 1), as
+    /// fractions: `moves` picks each step (0 both, 1 first, 2 second) while both can move.
+    fn lattice(n: usize, moves: &[u8]) -> Vec<(f64, f64)> {
+        let (mut i, mut j) = (0, 0);
+        let mut out = vec![(0.0, 0.0)];
+        for &m in moves.iter().cycle() {
+            if i == n && j == n {
+                break;
+            }
+            match m {
+                _ if i == n => j += 1,
+                _ if j == n => i += 1,
+                0 => (i, j) = (i + 1, j + 1),
+                1 => i += 1,
+                _ => j += 1,
+            }
+            out.push((i as f64 / n as f64, j as f64 / n as f64));
+        }
+        out
+    }
+
+    proptest::proptest! {
+        /// Three loops' joins merged: every coordinate rises from 0 to 1, each join's
+        /// vertices all lie on the merged path's projection onto its two loops, in order,
+        /// and every merged vertex projects onto each join's path.
+        #[test]
+        fn merged_joins_keep_every_join(
+            n1 in 1usize..12,
+            n2 in 1usize..12,
+            m1 in proptest::collection::vec(0u8..3, 1..30),
+            m2 in proptest::collection::vec(0u8..3, 1..30),
+        ) {
+            // Different lattices, so that one join's vertices fall inside the other's steps.
+            let (j1, j2) = (lattice(n1, &m1), lattice(n2, &m2));
+            let merged = merge_join(&merge_join(&[vec![0.0], vec![1.0]], &j1), &j2);
+            proptest::prop_assert_eq!(&merged[0], &vec![0.0, 0.0, 0.0]);
+            proptest::prop_assert_eq!(&merged[merged.len() - 1], &vec![1.0, 1.0, 1.0]);
+            for w in merged.windows(2) {
+                proptest::prop_assert!(w[0].iter().zip(&w[1]).all(|(x, y)| y >= x), "{:?}", w);
+            }
+            for (join, (x, y)) in [(&j1, (0, 1)), (&j2, (1, 2))] {
+                let mut k = 0;
+                for &(f, g) in join.iter() {
+                    while k < merged.len() && (merged[k][x], merged[k][y]) != (f, g) {
+                        k += 1;
+                    }
+                    proptest::prop_assert!(k < merged.len(), "join vertex ({}, {}) missing", f, g);
+                }
+                for v in &merged {
+                    let (p, q) = (v[x], v[y]);
+                    let on = join.windows(2).any(|s| {
+                        let ((f0, g0), (f1, g1)) = (s[0], s[1]);
+                        let cross = (f1 - f0) * (q - g0) - (g1 - g0) * (p - f0);
+                        cross.abs() < 1e-12
+                            && (f0.min(f1)..=f0.max(f1)).contains(&p)
+                            && (g0.min(g1)..=g0.max(g1)).contains(&q)
+                    });
+                    proptest::prop_assert!(on, "merged vertex {:?} off join {:?}", v, join);
+                }
+            }
+        }
     }
 }
