@@ -11,12 +11,11 @@ use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
 
-use super::{s6_fitting, s7_skinning, Control, StageStats};
+use super::s7_skinning::{crossing_faces_of, JUDGE_CHORDAL};
+use super::{s6_fitting, Control, StageStats};
 use crate::bspline::fit::FitOptions;
 use crate::geometry::alignment::align_starts;
 use crate::geometry::spur::{arm_spurs, with_spurs, Spur};
-use crate::mesh::crossings::crossing_faces;
-use crate::mesh::tessellate_each;
 use crate::region::{CurveOrigin, Region};
 use crate::section::{dot, SliceFrame};
 use crate::Result;
@@ -38,11 +37,6 @@ fn rotate_to_starts(region: &mut Region, tolerance: f64) {
     }
 }
 
-/// Chordal tolerance, in fitting tolerances, of the mesh a lobe's walk is judged on: the one
-/// the README's crossing counts are measured at, fixed so that the surfaces do not depend on
-/// the output's `--chordal`.
-const JUDGE_CHORDAL: f64 = 0.4;
-
 /// Faces crossing another face ([`crossing_faces`]) in the mesh of the surface stages 6 and 7
 /// would make of `region` with `points` in place of curve `end`, aligned as stage 5 leaves
 /// it; `usize::MAX` if it cannot be fitted. A walk's linear blends with the neighbour cross
@@ -58,18 +52,10 @@ pub fn trial_crossings(
     let mut trial = region.clone();
     trial.curves[end].points = points;
     rotate_to_starts(&mut trial, opts.tolerance);
-    let Ok(fitted) = s6_fitting::fit(trial, opts) else {
-        return usize::MAX;
-    };
-    let Ok(surface) = s7_skinning::skin(&fitted) else {
-        return usize::MAX;
-    };
-    let c = &fitted.region.curves;
-    let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
-    let chordal = JUDGE_CHORDAL * opts.tolerance;
-    let mut faces = Vec::new();
-    tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
-    crossing_faces(&faces)
+    match s6_fitting::fit(trial, opts) {
+        Ok(fitted) => crossing_faces_of(&fitted, JUDGE_CHORDAL * opts.tolerance),
+        Err(_) => usize::MAX,
+    }
 }
 
 /// An arm's points are farther than this many times the distance between the planes (or

@@ -12,6 +12,8 @@ use super::s6_fitting::{describe, FittedRegion};
 use super::{Control, StageStats};
 use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
+use crate::mesh::crossings::crossing_faces;
+use crate::mesh::tessellate_each;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::{Error, Result};
 
@@ -53,6 +55,25 @@ pub fn skin(fitted: &FittedRegion) -> Result<SkinnedSurface> {
         context: describe(region),
         source: e,
     })
+}
+
+/// Chordal tolerance, in fitting tolerances, of the mesh a choice between surfaces is judged
+/// on (a lobe's walk in stage 5, a fanning join in stage 6): the one the README's crossing
+/// counts are measured at, fixed so that the surfaces do not depend on the output's
+/// `--chordal`.
+pub const JUDGE_CHORDAL: f64 = 0.4;
+
+/// Faces crossing another face ([`crossing_faces`]) in the mesh at `chordal` mm of the
+/// surface through `fitted`'s curves; `usize::MAX` if it cannot be skinned.
+pub fn crossing_faces_of(fitted: &FittedRegion, chordal: f64) -> usize {
+    let Ok(surface) = skin(fitted) else {
+        return usize::MAX;
+    };
+    let c = &fitted.region.curves;
+    let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
+    let mut faces = Vec::new();
+    tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
+    crossing_faces(&faces)
 }
 
 pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {

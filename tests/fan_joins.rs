@@ -1,0 +1,181 @@
+//! Fanning joins (`geometry::alignment::fan_match`, `fan_tables`): two notched loops where
+//! one has a long thin hooked finger the other lacks. Chord length spreads the finger's walls
+//! along the whole other loop, its notches drift apart, and the surface between them crosses
+//! itself; the fan joins the finger to the
+//! points at its root, and the fitted, skinned and meshed surface (`fit_common_fanned`, the
+//! mesher's arc-length projection of the end loops) does not cross itself.
+
+use bskin::bspline::common_knots::{fit_common_fanned, fit_common_warped};
+use bskin::bspline::fit::FitOptions;
+use bskin::bspline::skinning::{skin_ends, SkinEnd};
+use bskin::geometry::alignment::{align_starts, chord_join_folds, fan_match, fan_tables};
+use bskin::mesh::crossings::crossing_faces;
+use bskin::mesh::tessellate_each;
+
+type P2 = [f64; 2];
+type P3 = [f64; 3];
+
+/// A circle of radius 20 mm, counter-clockwise from +x, with a notch 8 mm deep and 6° wide
+/// at each angle of `notches` (degrees): radial walls, points every 0.5°.
+fn notched(notches: &[f64]) -> Vec<P2> {
+    let at = |r: f64, deg: f64| -> P2 {
+        let t = deg.to_radians();
+        [r * t.cos(), r * t.sin()]
+    };
+    let mut out = Vec::new();
+    for k in 0..720 {
+        let deg = k as f64 * 0.5;
+        let inside = |d: f64| notches.iter().any(|&n| (d - n).abs() < 3.0);
+        if inside(deg) && !inside(deg - 0.5) {
+            out.push(at(20.0, deg));
+        }
+        out.push(at(if inside(deg) { 12.0 } else { 20.0 }, deg));
+        if inside(deg) && !inside(deg + 0.5) {
+            out.push(at(20.0, deg));
+        }
+    }
+    out
+}
+
+fn circle() -> Vec<P2> {
+    notched(&NOTCHES)
+}
+
+const NOTCHES: [f64; 5] = [20.0, 80.0, 180.0, 240.0, 300.0];
+
+/// The circle with a finger `width` mm wide leaving it at angle 120°: `out` mm straight out,
+/// then `hook` mm turned a right angle counter-clockwise, its walls sampled every millimetre.
+fn fingered(width: f64, out: f64, hook: f64) -> Vec<P2> {
+    let dir = [(120f64).to_radians().cos(), (120f64).to_radians().sin()];
+    let side = [-dir[1], dir[0]];
+    let on_finger = |p: &P2| (p[0] * side[0] + p[1] * side[1]).abs() < width / 2.0;
+    let ahead = |p: &P2| p[0] * dir[0] + p[1] * dir[1] > 0.0;
+    let c = circle();
+    let gap = c.iter().position(|p| ahead(p) && on_finger(p)).unwrap();
+    let after = gap + c[gap..].iter().take_while(|p| on_finger(p)).count();
+    // The centre line: from the root out along `dir`, then along `side`; each point with
+    // the unit normal its walls are offset along (mitred at the corner).
+    let root = (20.0f64.powi(2) - (width / 2.0).powi(2)).sqrt();
+    let mut centre: Vec<(P2, P2)> = Vec::new();
+    let (n_out, n_hook) = (out.round() as usize, hook.round() as usize);
+    // Straight samples stop, and the hook's start, a wall's width from the corner, so that
+    // the inner wall does not run back past its mitre.
+    for s in 0..n_out {
+        let a = root + (out - root) * s as f64 / n_out as f64;
+        if a < out - width {
+            centre.push(([a * dir[0], a * dir[1]], side));
+        }
+    }
+    let corner = [out * dir[0], out * dir[1]];
+    let mitre = [side[0] - dir[0], side[1] - dir[1]];
+    centre.push((corner, mitre));
+    for s in 1..=n_hook {
+        let a = hook * s as f64 / n_hook as f64;
+        if a < width {
+            continue;
+        }
+        centre.push((
+            [corner[0] + a * side[0], corner[1] + a * side[1]],
+            [-dir[0], -dir[1]],
+        ));
+    }
+    let wall = |(c, n): &(P2, P2), sign: f64| -> P2 {
+        [
+            c[0] + sign * width / 2.0 * n[0],
+            c[1] + sign * width / 2.0 * n[1],
+        ]
+    };
+    let mut loop_ = c[..gap].to_vec();
+    // Counter-clockwise: out along the wall on the −side, back along the +side.
+    loop_.extend(centre.iter().map(|c| wall(c, -1.0)));
+    loop_.extend(centre.iter().rev().map(|c| wall(c, 1.0)));
+    loop_.extend_from_slice(&c[after..]);
+    loop_
+}
+
+fn lift(l: &[P2], z: f64) -> Vec<P3> {
+    l.iter().map(|p| [p[0], p[1], z]).collect()
+}
+
+/// The notched circle and the one with a hooked finger, started as stage 5 starts them
+/// (`align_starts`).
+fn loops() -> (Vec<P2>, Vec<P2>) {
+    let (mut a, mut b) = (circle(), fingered(3.0, 40.0, 60.0));
+    let starts = align_starts(&[&lift(&a, 0.0), &lift(&b, 2.0)], 0.125);
+    a.rotate_left(starts[0]);
+    b.rotate_left(starts[1]);
+    (a, b)
+}
+
+#[test]
+fn a_fan_joins_a_finger_the_other_loop_lacks_without_crossing() {
+    let (a, b) = loops();
+    assert!(
+        chord_join_folds(&a, &b),
+        "chord length should fold this join"
+    );
+    let m = fan_match(&a, &b).unwrap();
+    assert_eq!(m.blends, 0);
+    assert_eq!(m.path.first(), Some(&(0.0, 0.0)));
+    assert_eq!(m.path.last(), Some(&(1.0, 1.0)));
+    for w in m.path.windows(2) {
+        let (da, db) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
+        assert!(da >= 0.0 && db >= 0.0 && da + db > 0.0, "{w:?}");
+    }
+    // The finger's 120 mm of wall is joined to a stretch of the circle a few millimetres
+    // long: somewhere the circle stands still while the finger's loop moves on.
+    let still = m.path.windows(2).filter(|w| w[1].0 == w[0].0).count();
+    assert!(still > 100, "{still} steps with the circle standing still");
+}
+
+#[test]
+fn fanned_surface_fits_and_meshes_without_crossing_itself() {
+    let (a, b) = loops();
+    let fans = fan_tables(&[Some(a.clone()), Some(b.clone())]).unwrap();
+    assert_eq!(fans.starts[0], 0);
+    for t in fans.tables.iter().flatten() {
+        assert_eq!((t[0], t[t.len() - 1]), (0.0, 1.0));
+        assert!(t.windows(2).all(|w| w[1] >= w[0]));
+    }
+    let mut b = b;
+    b.rotate_left(fans.starts[1]);
+    let (lo, hi) = (lift(&a, 0.0), lift(&b, 2.0));
+    let opts = FitOptions::new(0.5);
+    let fanned = fit_common_fanned(&[lo.clone(), hi.clone()], &fans.tables, &opts).unwrap();
+    assert!(fanned.met, "errors {:?}", fanned.max_errors);
+    let chord = fit_common_warped(&[lo.clone(), hi.clone()], &[], &opts).unwrap();
+    let faces = |curves| {
+        let s = skin_ends(curves, [SkinEnd::Free, SkinEnd::Free]).unwrap();
+        let mut out = Vec::new();
+        tessellate_each(&s, &lo, &hi, 0.2, |t| out.push(t));
+        crossing_faces(&out)
+    };
+    let (f, c) = (faces(&fanned.curves), faces(&chord.curves));
+    assert!(c > 0, "chord length should cross itself here");
+    assert_eq!(
+        f, 0,
+        "fanned surface crosses itself ({c} faces at chord length)"
+    );
+}
+
+#[test]
+fn three_loops_fan_where_their_joins_fold_and_keep_chord_length_elsewhere() {
+    let (a, b) = loops();
+    // a → b folds; b → b (the same loop again) does not.
+    let fans = fan_tables(&[Some(a), Some(b.clone()), Some(b), None]).unwrap();
+    assert_eq!(fans.starts.len(), 4);
+    assert!(fans.tables[3].is_none());
+    let (t1, t2) = (
+        fans.tables[1].as_ref().unwrap(),
+        fans.tables[2].as_ref().unwrap(),
+    );
+    // Loop 2 is joined to loop 1 at chord length: the same fractions, from the same point
+    // (wherever the fan started loop 1, loop 2 follows it).
+    assert_eq!(fans.starts[2], fans.starts[1]);
+    assert!(t1.iter().zip(t2).all(|(x, y)| (x - y).abs() < 1e-12));
+    assert!(fans.tables[0]
+        .as_ref()
+        .unwrap()
+        .windows(2)
+        .any(|w| w[1] == w[0]));
+}
