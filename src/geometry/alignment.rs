@@ -443,7 +443,7 @@ fn matched_warp(sa: &[Point], sb: &[Point]) -> Warp {
         }
     }
     Warp::Matched {
-        table: smoothed(&table, MATCH_SMOOTHING),
+        table: smoothed(&table),
     }
 }
 
@@ -461,10 +461,10 @@ const MATCH_SMOOTHING: usize = 8;
 /// parameters of a loop's points fitted on a common knot vector would follow those jumps
 /// with knots. An average of speeds within [½, 2] stays there, so φ stays increasing and
 /// within [`WARP_MAX_SPEED`], and the offset is periodic, so φ(1) = 1 still.
-fn smoothed(table: &[f64], half_width: usize) -> Vec<f64> {
+fn smoothed(table: &[f64]) -> Vec<f64> {
     let n = table.len() - 1;
     let mut offset: Vec<f64> = (0..n).map(|i| table[i] - i as f64 / n as f64).collect();
-    let h = half_width.min(n / 2);
+    let h = MATCH_SMOOTHING.min(n / 2);
     for _ in 0..2 {
         offset = (0..n)
             .map(|i| {
@@ -532,8 +532,8 @@ const FAN_STARTS: usize = 16;
 ///
 /// [`matched_warp`] bounds its speed, so that one loop's fractions stay a function of the
 /// other's; a lobe one loop has and the other lacks (GE head surface 135: a band of bone
-/// 250 mm round, beside an intermediate contour half its length) then has nowhere to go but
-/// along the rest of the loop, and the rulings cross wholesale. Here both loops are
+/// that the intermediate contour half a slice up lacks, 37 % of the contour's length) then
+/// has nowhere to go but along the rest of the loop, and the rulings cross wholesale. Here both loops are
 /// parameterised by the matching's own steps, so the lobe's walls fan onto the points the
 /// other loop has at its root, as a cap's walls fan onto its point. A matching with a bad
 /// start cannot recover (it is closed at both ends), hence the several starts.
@@ -583,8 +583,8 @@ pub fn fan_match(a: &[Point], b: &[Point]) -> Option<FanMatch> {
 /// chord length folds the join ([`chord_join_folds`]), and at chord length elsewhere: where
 /// each loop should start, and its chord-length fraction at common parameters (tables as
 /// [`chord_warps`] gives them, but flat wherever the loop stands still while a neighbour
-/// fans). `None` where no join folds. Each fanned loop's start is chosen with the loop below it already started
-/// where its own join put it.
+/// fans). `None` where no join folds. Each fanned loop's start is chosen with the loop below
+/// it already started where its own join put it.
 ///
 /// The joins are merged into one path through all the loops' fractions: at a fraction of
 /// loop k where the join below moves only loop k − 1 (or the one above only loop k + 1),
