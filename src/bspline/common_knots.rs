@@ -354,9 +354,7 @@ fn trial<const D: usize>(
 ) -> Result<Trial<D>, BsplineError> {
     // Per contour: fitting data (combined), which entries are original, params, own knots.
     let mut data: Vec<Option<TrialData<D>>> = Vec::with_capacity(items.len());
-    let mut sum = vec![0.0f64; n1 + 1];
     let mut owns: Vec<PeriodicKnotVector> = Vec::new();
-    let mut used = 0usize;
     for item in items.iter_mut() {
         match item {
             Item::Cap(_) => data.push(None),
@@ -385,18 +383,20 @@ fn trial<const D: usize>(
                 } else {
                     knots_approximation(&u, n1)?
                 };
-                for (s, k) in sum.iter_mut().zip(own.domain()) {
-                    *s += k;
-                }
                 owns.push(own);
-                used += 1;
                 data.push(Some((combined, orig, u)));
             }
         }
     }
     let knots = match rule {
         KnotRule::Average => {
-            let domain: Vec<f64> = sum.iter().map(|s| s / used as f64).collect();
+            let mut sum = vec![0.0f64; n1 + 1];
+            for own in &owns {
+                for (s, k) in sum.iter_mut().zip(own.domain()) {
+                    *s += k;
+                }
+            }
+            let domain: Vec<f64> = sum.iter().map(|s| s / owns.len() as f64).collect();
             PeriodicKnotVector::try_new(&domain)?
         }
         KnotRule::Densest => densest_knots(&owns, n1)?,

@@ -112,12 +112,6 @@ fn joining_start<const D: usize>(a: &Loop<D>, b: &[[f64; D]], spacing: f64) -> u
     b.vertex_at(shift as f64 / fine as f64)
 }
 
-/// [`joining_start`] of loop `b` after loop `a` (both in the plane, `a` from its first
-/// point), to the finest resolution the search takes.
-fn closest_join_start(a: &[Point], b: &[Point]) -> usize {
-    joining_start(&Loop::new(a, 0), b, 0.0)
-}
-
 /// Among the shifts `first, first + 1, … (count of them, modulo n)` of two loops' `n`
 /// arc-length samples each, the one (in [0, n)) at which `sb` lies closest on average to `sa`.
 fn best_shift<const D: usize>(
@@ -599,22 +593,22 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>]) -> Option<RegionFans> {
         return None;
     }
     let mut starts = vec![0usize; loops.len()];
-    let mut rotated: Vec<Vec<Point>> = vec![Vec::new(); loops.len()];
-    rotated[idx[0]] = loops[idx[0]].clone().unwrap_or_default();
+    // The loop below the join, as started so far.
+    let mut a: Vec<Point> = loops[idx[0]].clone().unwrap_or_default();
     // The merged path: per vertex, every loop's fraction so far (loops in `idx` order).
     let mut merged: Vec<Vec<f64>> = vec![vec![0.0], vec![1.0]];
     let mut any = false;
     for w in idx.windows(2) {
-        let a = &rotated[w[0]];
         let mut b = loops[w[1]].clone().unwrap_or_default();
         // A loop a fan has started elsewhere takes the next with it (stage 5 had started
-        // that one where its chord-length join with this loop's old start was closest).
+        // that one where its chord-length join with this loop's old start was closest), to
+        // the finest resolution the search takes.
         if starts[w[0]] != 0 {
-            starts[w[1]] = closest_join_start(a, &b);
+            starts[w[1]] = joining_start(&Loop::new(&a, 0), &b, 0.0);
             b.rotate_left(starts[w[1]]);
         }
-        let join = if chord_join_folds(a, &b) {
-            fan_match(a, &b)
+        let join = if chord_join_folds(&a, &b) {
+            fan_match(&a, &b)
         } else {
             None
         };
@@ -627,7 +621,7 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>]) -> Option<RegionFans> {
             }
             None => vec![(0.0, 0.0), (1.0, 1.0)],
         };
-        rotated[w[1]] = b;
+        a = b;
         merged = merge_join(&merged, &path);
     }
     if !any {

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
 
-use super::s7_skinning::{crossing_faces_of, JUDGE_CHORDAL};
+use super::s7_skinning::crossing_faces_of;
 use super::{s6_fitting, Control, StageStats};
 use crate::bspline::fit::FitOptions;
 use crate::geometry::alignment::align_starts;
@@ -53,7 +53,7 @@ pub fn trial_crossings(
     trial.curves[end].points = points;
     rotate_to_starts(&mut trial, opts.tolerance);
     match s6_fitting::fit(trial, opts) {
-        Ok(fitted) => crossing_faces_of(&fitted, JUDGE_CHORDAL * opts.tolerance),
+        Ok(fitted) => crossing_faces_of(&fitted, opts.tolerance),
         Err(_) => usize::MAX,
     }
 }

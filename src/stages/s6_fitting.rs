@@ -87,8 +87,7 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     if !folds {
         return fitted;
     }
-    let chordal = s7_skinning::JUDGE_CHORDAL * opts.tolerance;
-    let now = s7_skinning::crossing_faces_of(&fitted, chordal);
+    let now = s7_skinning::crossing_faces_of(&fitted, opts.tolerance);
     if now == 0 {
         return fitted;
     }
@@ -100,7 +99,9 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
         c.points.rotate_left(s);
     }
     match fit_warped(region, &fans.tables, true, opts) {
-        Ok(fanned) if fanned.fit.met && s7_skinning::crossing_faces_of(&fanned, chordal) < now => {
+        Ok(fanned)
+            if fanned.fit.met && s7_skinning::crossing_faces_of(&fanned, opts.tolerance) < now =>
+        {
             fanned
         }
         _ => fitted,

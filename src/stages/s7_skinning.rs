@@ -61,17 +61,19 @@ pub fn skin(fitted: &FittedRegion) -> Result<SkinnedSurface> {
 /// on (a lobe's walk in stage 5, a fanning join in stage 6): the one the README's crossing
 /// counts are measured at, fixed so that the surfaces do not depend on the output's
 /// `--chordal`.
-pub const JUDGE_CHORDAL: f64 = 0.4;
+const JUDGE_CHORDAL: f64 = 0.4;
 
-/// Faces crossing another face ([`crossing_faces`]) in the mesh at `chordal` mm of the
-/// surface through `fitted`'s curves; `usize::MAX` if it cannot be skinned.
-pub fn crossing_faces_of(fitted: &FittedRegion, chordal: f64) -> usize {
+/// Faces crossing another face ([`crossing_faces`]) in the mesh of the surface through
+/// `fitted`'s curves, at [`JUDGE_CHORDAL`] fitting tolerances; `usize::MAX` if it cannot be
+/// skinned.
+pub fn crossing_faces_of(fitted: &FittedRegion, tolerance: f64) -> usize {
     let Ok(surface) = skin(fitted) else {
         return usize::MAX;
     };
     let c = &fitted.region.curves;
     let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
     let mut faces = Vec::new();
+    let chordal = JUDGE_CHORDAL * tolerance;
     tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
     crossing_faces(&faces)
 }
