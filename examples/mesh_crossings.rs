@@ -4,7 +4,9 @@
 //! `mesh.ply` too, it lists which surfaces cross which (from the ply's `comment surface ID
 //! faces FIRST COUNT` lines): per pair of surfaces, the faces of either that cross the other.
 //!
-//! Usage: `cargo run --release --example mesh_crossings -- MESH.stl [MESH.ply [TOP]]`
+//! Usage: `cargo run --release --example mesh_crossings -- MESH.stl [MESH.ply [TOP]]`;
+//! with `WHERE=A,B` in the environment it also prints where the crossing faces of surfaces A
+//! and B lie, by quarter-mm of height, to tell a cap seam from a wall sweeping over a dome.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -62,6 +64,30 @@ fn main() {
             .map(|(_, f)| f.len())
             .sum::<usize>()
     ));
+    // `WHERE=A,B`: where the faces of the pair (A, B) lie, by quarter-mm of height.
+    if let Ok(pair) = std::env::var("WHERE") {
+        let v: Vec<usize> = pair.split(',').filter_map(|w| w.parse().ok()).collect();
+        if let [a, b] = v[..] {
+            let mut by_z: BTreeMap<(i64, usize), (usize, [f64; 3])> = BTreeMap::new();
+            for &f in by_pair.get(&(a.min(b), a.max(b))).into_iter().flatten() {
+                let c = faces[f];
+                let m = [0, 1, 2].map(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+                let e = by_z
+                    .entry(((m[2] * 4.0).floor() as i64, of(f)))
+                    .or_insert((0, [0.0; 3]));
+                e.0 += 1;
+                (0..3).for_each(|k| e.1[k] += m[k]);
+            }
+            for ((z, id), (n, s)) in by_z {
+                say(format_args!(
+                    "z {:>8.2} surface {id:>4}: {n:>5} faces, mean at ({:.1}, {:.1})",
+                    z as f64 / 4.0,
+                    s[0] / n as f64,
+                    s[1] / n as f64
+                ));
+            }
+        }
+    }
     let mut rows: Vec<_> = by_pair.into_iter().map(|(k, f)| (f.len(), k)).collect();
     rows.sort_by(|a, b| b.cmp(a));
     for (n, (a, b)) in rows.into_iter().take(top) {
