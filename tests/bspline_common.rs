@@ -6,7 +6,7 @@
 #[path = "bspline_helpers.rs"]
 mod helpers;
 
-use bskin::bspline::{fit_common, fit_common_warped, BsplineError, FitOptions};
+use bskin::bspline::{fit_common, fit_common_densest, fit_common_warped, BsplineError, FitOptions};
 use helpers::{circle, dist, lift, star};
 use proptest::prelude::*;
 
@@ -18,13 +18,19 @@ proptest! {
         sizes in prop::collection::vec(8usize..400, 2..6),
         seed in 0u64..1_000_000,
         tol in prop_oneof![Just(0.1), 0.03f64..0.3],
+        densest in any::<bool>(),
     ) {
         let contours: Vec<Vec<[f64; 3]>> = sizes
             .iter()
             .enumerate()
             .map(|(k, &m)| lift(&star(m, 25.0 + k as f64, 0.02, seed + k as u64), 2.0 * k as f64))
             .collect();
-        let f = fit_common(&contours, &FitOptions::new(tol)).unwrap();
+        // The paper's averaged knots, or the pipeline's spread as the densest contour's.
+        let f = if densest {
+            fit_common_densest(&contours, &[], &FitOptions::new(tol)).unwrap()
+        } else {
+            fit_common(&contours, &FitOptions::new(tol)).unwrap()
+        };
         prop_assert_eq!(f.curves.len(), contours.len());
         for (k, c) in f.curves.iter().enumerate() {
             prop_assert_eq!(c.knots(), &f.knots);

@@ -2,10 +2,10 @@
 //! one has a long thin hooked finger the other lacks. Chord length spreads the finger's walls
 //! along the whole other loop, its notches drift apart, and the surface between them crosses
 //! itself; the fan joins the finger to the
-//! points at its root, and the fitted, skinned and meshed surface (`fit_common_fanned`, the
+//! points at its root, and the fitted, skinned and meshed surface (`fit_common_densest`, the
 //! mesher's arc-length projection of the end loops) does not cross itself.
 
-use bskin::bspline::common_knots::{fit_common_fanned, fit_common_warped};
+use bskin::bspline::common_knots::fit_common_densest;
 use bskin::bspline::fit::FitOptions;
 use bskin::bspline::skinning::{skin_ends, SkinEnd};
 use bskin::geometry::alignment::{align_starts, chord_join_folds, fan_match, fan_tables};
@@ -141,9 +141,9 @@ fn fanned_surface_fits_and_meshes_without_crossing_itself() {
     b.rotate_left(fans.starts[1]);
     let (lo, hi) = (lift(&a, 0.0), lift(&b, 2.0));
     let opts = FitOptions::new(0.5);
-    let fanned = fit_common_fanned(&[lo.clone(), hi.clone()], &fans.tables, &opts).unwrap();
+    let fanned = fit_common_densest(&[lo.clone(), hi.clone()], &fans.tables, &opts).unwrap();
     assert!(fanned.met, "errors {:?}", fanned.max_errors);
-    let chord = fit_common_warped(&[lo.clone(), hi.clone()], &[], &opts).unwrap();
+    let chord = fit_common_densest(&[lo.clone(), hi.clone()], &[], &opts).unwrap();
     let faces = |curves| {
         let s = skin_ends(curves, [SkinEnd::Free, SkinEnd::Free]).unwrap();
         let mut out = Vec::new();

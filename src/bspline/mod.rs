@@ -106,7 +106,7 @@ pub mod skinning;
 pub mod surface;
 
 pub use closed_curve::ClosedCurve;
-pub use common_knots::{fit_common, fit_common_warped, CommonFit};
+pub use common_knots::{fit_common, fit_common_densest, fit_common_warped, CommonFit};
 pub use cyclic_solver::CyclicBandedMatrix;
 pub use fit::{chord_params, clean_contour, fit_contour, fit_fewest, ContourFit, FitOptions};
 pub use knot_vector::{ClampedKnotVector, PeriodicKnotVector};

@@ -27,7 +27,7 @@
 //! `bspline::fit_common_warped`). Where one loop has a whole lobe the other lacks, no join at
 //! bounded speed keeps the rulings apart; [`fan_tables`] then joins such loops by the
 //! shortest rulings with fans allowed (one loop standing still while the other goes round the
-//! lobe), each loop parameterised by the matching's own steps (`bspline::fit_common_fanned`).
+//! lobe), each loop parameterised by the matching's own steps (`bspline::fit_common_densest`).
 
 use super::polygon::{proper_crossings, Point};
 

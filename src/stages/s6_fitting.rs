@@ -11,7 +11,7 @@ use crossbeam_channel::{Receiver, Sender};
 use rayon::prelude::*;
 
 use super::{s7_skinning, Control, StageStats};
-use crate::bspline::common_knots::{fit_common_fanned, fit_common_warped, CommonFit};
+use crate::bspline::common_knots::{fit_common_densest, CommonFit};
 use crate::bspline::fit::FitOptions;
 use crate::geometry::alignment::{chord_join_folds, chord_warps, fan_tables};
 use crate::region::Region;
@@ -33,16 +33,16 @@ pub struct FittedRegion {
 /// the curves then start where those joins put them.
 pub fn fit(region: Region, opts: &FitOptions) -> Result<FittedRegion> {
     let warps = warps(&region);
-    let fitted = fit_warped(region, &warps, false, opts)?;
+    let fitted = fit_warped(region, &warps, opts)?;
     Ok(fan_joined(fitted, opts))
 }
 
-/// [`fit`] at the given warps: [`fit_common_fanned`] if they may fan, else
-/// [`fit_common_warped`].
+/// [`fit`] at the given warps, on knots spread as the densest loop's
+/// ([`fit_common_densest`]: where a fan stands a loop still, the paper's average of the
+/// loops' own knots leaves too few there for the loop that moves).
 fn fit_warped(
     region: Region,
     warps: &[Option<Vec<f64>>],
-    fans: bool,
     opts: &FitOptions,
 ) -> Result<FittedRegion> {
     let max_gap = EDGE_SAMPLES_PER_TOLERANCE * opts.tolerance;
@@ -57,12 +57,7 @@ fn fit_warped(
             }
         })
         .collect();
-    let fit = if fans {
-        fit_common_fanned(&curves, warps, opts)
-    } else {
-        fit_common_warped(&curves, warps, opts)
-    };
-    let fit = fit.map_err(|e| Error::Kernel {
+    let fit = fit_common_densest(&curves, warps, opts).map_err(|e| Error::Kernel {
         stage: STAGE,
         context: describe(&region),
         source: e,
@@ -98,7 +93,7 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     for (c, s) in region.curves.iter_mut().zip(fans.starts) {
         c.points.rotate_left(s);
     }
-    match fit_warped(region, &fans.tables, true, opts) {
+    match fit_warped(region, &fans.tables, opts) {
         Ok(fanned)
             if fanned.fit.met && s7_skinning::crossing_faces_of(&fanned, opts.tolerance) < now =>
         {
