@@ -274,6 +274,31 @@ fn caps_close_smoothly() {
         let dir: [f64; 3] = std::array::from_fn(|x| p1[x] - s.eval(u, 0.0)[x]);
         assert!(dir[0] * sv0[0] + dir[1] * sv0[1] > 0.0);
     }
+    // One factor for every column: S_v(u, 0) is the same multiple of the projected chord
+    // to the neighbouring curve for every u, so the rows near the cap are shrunken copies
+    // of it (per-column tangents bent each column its own way, and the rows crossed).
+    let vb = s.v_bar().to_vec();
+    let ratio = |v: f64, k: usize, q: usize| -> f64 {
+        let u = n1 as f64 * q as f64 / 40.0;
+        let (_, _, sv) = s.partials(u, v);
+        let chord: [f64; 3] = std::array::from_fn(|x| curves[k].eval(u)[x] - s.eval(u, v)[x]);
+        // Parallel in the slice plane: the 2-D cross product vanishes.
+        let cross = sv[0] * chord[1] - sv[1] * chord[0];
+        let dot = sv[0] * chord[0] + sv[1] * chord[1];
+        assert!(
+            cross.abs() < 1e-9 * (1.0 + dot.abs()),
+            "{sv:?} vs {chord:?}"
+        );
+        dot / (chord[0] * chord[0] + chord[1] * chord[1])
+    };
+    for (v, k) in [(0.0, 1), (r, curves.len() - 2)] {
+        let first = ratio(v, k, 0);
+        assert!(first.abs() > 1e-3 / (vb[1] - vb[0]), "{first}");
+        for q in 1..40 {
+            let rq = ratio(v, k, q);
+            assert!((rq - first).abs() < 1e-9 * first.abs(), "{rq} vs {first}");
+        }
+    }
     // Still interpolates the curves.
     for (k, c) in curves.iter().enumerate() {
         assert!(dist(&s.eval(1.3, s.v_bar()[k]), &c.eval(1.3)) < 1e-9);

@@ -31,9 +31,11 @@
 //!   the plane through Q orthogonal to the neighbouring curve's normal (Newell normal of C_1's
 //!   control polygon: for a contour in a slice plane it is the slice normal, and the cap sits
 //!   on the slice axis), which gives a smooth dome with its tangent plane parallel to the
-//!   slices. If a projected tangent points back towards the axis (parabola overshoot), the
-//!   projected chord (B_{i,1} − Q)/v̄_1 is used instead. If the neighbour has no normal
-//!   (degenerate polygon), the tangents are left unprojected.
+//!   slices. Within that plane every column's tangent is its projected chord
+//!   (B_{i,1} − Q)/v̄_1, all scaled by one least-squares factor fitted to the projected
+//!   parabola tangents: one factor keeps the rows near the cap shrunken copies of the
+//!   neighbour, where per-column tangents crossed (see `cap_tangents`). If the neighbour has
+//!   no normal (degenerate polygon), the tangents are left unprojected.
 
 use nalgebra::{DMatrix, Dyn, LU};
 
@@ -372,19 +374,36 @@ fn control_net(
     Ok((vk, control))
 }
 
-/// Projects cap tangents into the plane orthogonal to the neighbouring curve's normal (see
-/// the module doc). `cap` holds the cap's control points (one, or one per column of a ridge
-/// loop); `h` is the v̄ step to the neighbour; `sign` is +1 at the start (tangents point
-/// from the cap outwards), −1 at the end.
+/// Cap tangents in the plane orthogonal to the neighbouring curve's normal (see the module
+/// doc): the projected chords from the cap to the neighbour's control points, all scaled by
+/// the one factor that best matches the projected parabola tangents (least squares; 1 where
+/// it is not positive). `cap` holds the cap's control points (one, or one per column of a
+/// ridge loop); `h` is the v̄ step to the neighbour; `sign` is +1 at the start (tangents
+/// point from the cap outwards), −1 at the end.
+///
+/// One factor, not each column's own tangent: near the cap the rows are the cap plus a
+/// small multiple of the tangent curve Σ N_i(u) T_i, so with chords scaled alike they are
+/// shrunken copies of the neighbour (a point cap) or blends of the ridge loop with it, and
+/// simple where it is; the parabolas, each column bent by its own third curve, crossed
+/// (Siemens abdomen surface 234, a contour capped at its innermost point: 229 crossing faces
+/// within a quarter of the cap's height).
 fn cap_tangents(t: &mut [P3], cap: &[P3], neighbour: &[P3], h: f64, sign: f64) {
     let Some(nn) = newell_normal(neighbour) else {
         return;
     };
     let proj = |v: &P3| sub(v, &scale(&nn, dot(v, &nn)));
-    for (i, ti) in t.iter_mut().enumerate() {
-        let p = proj(ti);
-        let q = cap[i % cap.len()];
-        let chord = scale(&proj(&sub(&neighbour[i], &q)), sign / h);
-        *ti = if dot(&p, &chord) > 0.0 { p } else { chord };
+    let chords: Vec<P3> = (0..t.len())
+        .map(|i| scale(&proj(&sub(&neighbour[i], &cap[i % cap.len()])), sign / h))
+        .collect();
+    let (pc, cc) = t.iter().zip(&chords).fold((0.0, 0.0), |(pc, cc), (ti, c)| {
+        (pc + dot(&proj(ti), c), cc + dot(c, c))
+    });
+    let factor = if cc > 0.0 && pc / cc > 0.0 && (pc / cc).is_finite() {
+        pc / cc
+    } else {
+        1.0
+    };
+    for (ti, c) in t.iter_mut().zip(&chords) {
+        *ti = scale(c, factor);
     }
 }
