@@ -323,6 +323,40 @@ fn a_bay_closing_into_a_hole_joins_it_by_a_slit() {
     assert_none_inside(&tris, [33.0, 23.0, 3.2], [47.0, 41.0, 7.8]);
 }
 
+/// The same block with its mouth closed on slice 5 only: the cavity is a bay below and above
+/// it, a hole on it. Joined by a slit across the closed mouth, the keyhole loop is where the
+/// bay's walls below end and, as the hole opens onto the outside again above, where those
+/// above start: the block's surface runs on through the loop. Before, the hole capped alone
+/// upwards and hung a dome into the bay above, through which the walls swept from the closed
+/// mouth to the open one: 2,350 triangles inside the void, 662 faces crossing another. The
+/// mesh stays closed and none is inside. Crossing faces: 154, most (106) where the slit's
+/// two sides pinch at slice 5 (the surface's iso-curve there fits the zero-width slit within
+/// the tolerance, each side its own way), the rest at the bay's floor.
+#[test]
+fn a_mouth_closed_on_one_slice_runs_through_its_keyhole() {
+    let block = |x: f64, y: f64| (10.0..=70.0).contains(&x) && (10.0..=50.0).contains(&y);
+    let images = solid_images(|k, x, y| {
+        let cavity = (30.0..=50.0).contains(&x) && (20.0..=44.0).contains(&y);
+        let mouth = (37.0..=43.0).contains(&x) && y > 44.0;
+        let void = match k {
+            1..=2 => false,
+            3..=4 | 6..=8 => cavity || mouth,
+            5 => cavity,
+            _ => true,
+        };
+        block(x, y) && !void
+    });
+    let tris = closed_mesh(&images);
+    let crossing = common::crossing_faces(&tris, 1e-6);
+    eprintln!(
+        "{} of {} faces cross another",
+        crossing.iter().filter(|&&c| c).count(),
+        tris.len()
+    );
+    assert_none_inside(&tris, [33.0, 23.0, 3.2], [47.0, 41.0, 7.8]);
+    assert!(crossing.iter().filter(|&&c| c).count() < 662 / 2);
+}
+
 /// Two pillars (slices 1–4) that merge into one block (slices 5–8) with a window over the gap
 /// between them: a branching whose upper contour has a hole with no hole below. The hole
 /// joins its contour in a keyhole across the bridge below the window, so the gap's walls rise

@@ -74,23 +74,27 @@ impl Problem {
         self.keyholes(true).iter().any(|j| j.contour == k)
     }
 
-    /// The upper contours (outer and holes) that start here from a keyhole.
-    fn starting_from_keyhole(&self) -> Vec<usize> {
-        self.keyholes(false)
-            .into_iter()
-            .flat_map(|j| std::iter::once(j.contour).chain(j.holes.iter().copied()))
-            .collect()
+    /// Whether lower contour `k`'s region runs on here through the keyhole loop it started
+    /// from (see [`Problem::Link`]).
+    pub fn runs_through(&self, k: usize) -> bool {
+        matches!(self, Problem::Link { lower, through, .. } if *lower == k && !through.is_empty())
     }
 }
 
 /// One problem between two adjacent sections. Indices are contour indices in their section.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Problem {
-    /// One contour below continues as one contour above.
+    /// One contour below continues as one contour above. `through` lists the holes of the
+    /// lower contour's keyhole loop where its region starts from one and every such hole
+    /// ends here, opening onto the upper contour's outside (a mouth closed on this slice
+    /// only): the region runs on through that loop, a curve of it rather than its end, and
+    /// the holes it really joined are carried with it (branching drops their caps,
+    /// `s4_branching::Assembler::drop_carried_caps`). Empty otherwise.
     Link {
         hole: bool,
         lower: usize,
         upper: usize,
+        through: Vec<usize>,
     },
     /// m contours below and n above form one connected component with m + n ≥ 3. Outer
     /// contours with lone holes that open onto the other side's outside enter it as keyholes
@@ -147,10 +151,13 @@ fn boxes_meet(a: [f64; 4], b: [f64; 4]) -> bool {
     a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
 }
 
-/// The problems between `lower` and `upper` (both present). `blocked` flags the lower
-/// contours that start here from a keyhole (the previous transition's upper side): their
-/// regions have one curve yet, so they cannot end in another keyhole at once.
-pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Problem> {
+/// The problems between `lower` and `upper` (both present). `started` says, per lower
+/// contour, whether it starts here from a keyhole (the previous transition's upper side),
+/// with that keyhole for its outer contour (for its holes, the hole on its own): such
+/// regions have one curve yet, so they cannot end in another keyhole at once; where the
+/// keyhole's holes open onto the upper contour's outside, the region runs on through the
+/// loop (`through` of [`Problem::Link`]).
+pub fn correspond(lower: &Section, upper: &Section, started: &[Option<Joined>]) -> Vec<Problem> {
     let lo: Vec<&[Point]> = lower.contours.iter().map(|c| c.points.as_slice()).collect();
     // The upper contours projected along the normal into the lower section's plane.
     let up_owned: Vec<Vec<Point>> = upper
@@ -258,6 +265,7 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
                 hole,
                 lower: lower_ids[0],
                 upper: upper_ids[0],
+                through: Vec::new(),
             }
         } else {
             Problem::Branch {
@@ -284,7 +292,7 @@ pub fn correspond(lower: &Section, upper: &Section, blocked: &[bool]) -> Vec<Pro
         arr: &ua,
         hole: holes(upper),
     };
-    join_keyholes(problems, &lower_side, &upper_side, blocked)
+    join_keyholes(problems, &lower_side, &upper_side, started)
 }
 
 /// One section's contours as [`join_keyholes`] sees them (in the lower section's plane).
@@ -343,13 +351,14 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
 }
 
 /// Turns outer links and branchings whose contours have lone holes opening onto the other
-/// side's outside into keyholes, and drops those holes' caps. `blocked` lower contours (see
-/// [`correspond`]) are not joined.
+/// side's outside into keyholes, and drops those holes' caps. Lower contours that `started`
+/// from a keyhole (see [`correspond`]) are not joined; a link of one runs on through its
+/// loop where all the loop's holes are lone here and open onto the upper contour's outside.
 fn join_keyholes(
     problems: Vec<Problem>,
     lower: &View,
     upper: &View,
-    blocked: &[bool],
+    started: &[Option<Joined>],
 ) -> Vec<Problem> {
     let lone = |side: Side| -> Vec<usize> {
         problems
@@ -372,8 +381,20 @@ fn join_keyholes(
     fn pts<'a>(v: &View<'a>, ids: &[usize]) -> Vec<&'a [Point]> {
         ids.iter().map(|&k| v.pts[k]).collect()
     }
+    let started_with = |i: usize| started.get(i).and_then(|s| s.as_ref());
+    // The keyhole lower contour `i` starts from, if its holes all cap here and open onto the
+    // outside of `others`: its region runs on through that loop.
+    let through = |i: usize, others: &[&[Point]]| {
+        started_with(i).filter(|j| {
+            j.is_keyhole()
+                && j.holes.iter().all(|h| {
+                    lone_lower.contains(h)
+                        && open_fraction(lower.pts[*h], others) >= MIN_OPEN_FRACTION
+                })
+        })
+    };
     let join_lower = |i: usize, others: &[&[Point]]| {
-        if blocked.get(i).copied().unwrap_or(false) {
+        if started_with(i).is_some() {
             joinable(lower, i, &[], others)
         } else {
             joinable(lower, i, &lone_lower, others)
@@ -386,9 +407,21 @@ fn join_keyholes(
                 hole: false,
                 lower: i,
                 upper: j,
+                ..
             } => {
-                let lo = join_lower(*i, &pts(upper, &[*j]));
+                let others = pts(upper, &[*j]);
                 let up = joinable(upper, *j, &lone_upper, &pts(lower, &[*i]));
+                // (Not where the upper contour starts from a keyhole itself: the region
+                // would end where it starts.)
+                if let (Some(k), false) = (through(*i, &others), up.is_keyhole()) {
+                    return Problem::Link {
+                        hole: false,
+                        lower: *i,
+                        upper: *j,
+                        through: k.holes.clone(),
+                    };
+                }
+                let lo = join_lower(*i, &others);
                 if lo.is_keyhole() || up.is_keyhole() {
                     Problem::Keyhole {
                         lower: lo,
@@ -444,13 +477,21 @@ fn join_keyholes(
     out
 }
 
-/// The contours of `upper` that start from a keyhole in `problems`.
-pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<bool> {
-    let mut flags = vec![false; n];
-    for k in problems.iter().flat_map(Problem::starting_from_keyhole) {
-        flags[k] = true;
+/// Per contour of `upper`, whether it starts from a keyhole in `problems`: that keyhole
+/// for its outer contour, each hole on its own.
+pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<Option<Joined>> {
+    let mut started = vec![None; n];
+    for j in problems.iter().flat_map(|p| p.keyholes(false)) {
+        for &h in &j.holes {
+            started[h] = Some(Joined {
+                contour: h,
+                holes: Vec::new(),
+                slits: Vec::new(),
+            });
+        }
+        started[j.contour] = Some(j.clone());
     }
-    flags
+    started
 }
 
 /// Cap problems for the contours of `section` flagged in `free` (no counterpart on `side`).
@@ -554,7 +595,7 @@ pub fn run(
         ..Default::default()
     };
     let mut prev: Option<Arc<Section>> = None;
-    let mut blocked: Vec<bool> = Vec::new();
+    let mut started: Vec<Option<Joined>> = Vec::new();
     let mut spacing = fallback_spacing;
     let send = |t: Transition| out.send(t).is_ok();
     for section in input {
@@ -574,8 +615,8 @@ pub fn run(
                     ),
                 });
             }
-            let problems = correspond(&lower, &section, &blocked);
-            blocked = keyholed_upper(&problems, section.contours.len());
+            let problems = correspond(&lower, &section, &started);
+            started = keyholed_upper(&problems, section.contours.len());
             stats.busy += t.elapsed();
             // The bottom caps of the first section wait for the first spacing.
             if stats.items == 1 && !send(end_transition(&lower, Side::Below, spacing)) {
@@ -694,6 +735,8 @@ mod tests {
         assert_eq!(upper.holes, vec![1]);
         // Across the closed mouth, from the block's top edge to the hole's.
         assert_eq!((upper.slits[0].from.ring, upper.slits[0].to.ring), (0, 1));
+        let started = keyholed_upper(&problems, 2);
+        assert_eq!(started[0].as_ref(), Some(upper));
         // The other way up: the hole opens into the bay, the lower side is the keyhole.
         let (lower, upper) = (block_with_hole(), section(2, vec![(bay(), false)]));
         let problems = correspond(&lower, &upper, &[]);
@@ -702,15 +745,34 @@ mod tests {
                 if lower.holes == vec![1] && !upper.is_keyhole()),
             "{problems:?}"
         );
-        // Unless the lower contour starts from a keyhole itself: then the hole caps alone.
-        let problems = correspond(&lower, &upper, &[true, true]);
+        // Unless the lower contour starts from a keyhole itself: joining other holes, the
+        // hole caps alone;
+        let other = Joined {
+            contour: 0,
+            holes: vec![2],
+            slits: Vec::new(),
+        };
+        let problems = correspond(&lower, &upper, &[Some(other), started[1].clone()]);
         assert!(
             matches!(
                 problems.as_slice(),
-                [Problem::Link { .. }, Problem::Cap { outer: None, .. }]
+                [Problem::Link { through, .. }, Problem::Cap { outer: None, .. }]
+                    if through.is_empty()
             ),
             "{problems:?}"
         );
+        // joining this one (the mouth is closed on this slice only), the region runs on
+        // through that keyhole loop (branching drops the hole's cap).
+        let problems = correspond(&lower, &upper, &started);
+        assert!(
+            matches!(
+                problems.as_slice(),
+                [Problem::Link { through, .. }, Problem::Cap { outer: None, holes, .. }]
+                    if through == &vec![1] && holes == &vec![1]
+            ),
+            "{problems:?}"
+        );
+        assert!(problems[0].runs_through(0) && !problems[0].runs_through(1));
     }
 
     #[test]
@@ -744,12 +806,14 @@ mod tests {
                 Problem::Link {
                     hole: false,
                     lower: 0,
-                    upper: 0
+                    upper: 0,
+                    through: vec![]
                 },
                 Problem::Link {
                     hole: true,
                     lower: 1,
-                    upper: 1
+                    upper: 1,
+                    through: vec![]
                 },
                 Problem::Cap {
                     side: Side::Above,
@@ -765,6 +829,7 @@ mod tests {
             hole: false,
             lower,
             upper,
+            through: vec![],
         };
         // The other way up, the island caps below.
         let cap = Problem::Cap {

@@ -287,6 +287,14 @@ fn min_search_step(holes: &[&[Point]]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Whether upper contour `k`'s region runs on through its keyhole loop in the next
+/// transition (the first of `ahead`).
+fn runs_through(ahead: &[Transition], k: usize) -> bool {
+    ahead
+        .first()
+        .is_some_and(|n| n.problems.iter().any(|p| p.runs_through(k)))
+}
+
 /// Slits are sampled at twice the distance-map cell, like the ridge loops' paths.
 fn slit_step(cell_mm: f64) -> f64 {
     2.0 * cell_mm
@@ -483,6 +491,9 @@ pub struct Assembler {
     next_id: usize,
     /// Most curves of a region (0: no limit); see `RunConfig::max_curves`.
     max_curves: usize,
+    /// Holes of the current top section that a region carries through its keyhole loop:
+    /// the next transition's caps of them are dropped (see [`Assembler::drop_carried_caps`]).
+    carried: Vec<usize>,
 }
 
 impl Assembler {
@@ -491,6 +502,22 @@ impl Assembler {
             max_curves,
             ..Default::default()
         }
+    }
+
+    /// Drops from `t` (the next transition) the caps of the holes carried through keyhole
+    /// loops: correspondence runs a region on through its loop where all the loop's holes
+    /// close and open onto the outside above, but cannot know which of them a branching's
+    /// keyhole really joined (those the intermediate section already has start walls of
+    /// their own, and keep their caps).
+    pub fn drop_carried_caps(&self, t: &mut Transition) {
+        t.problems.retain(|p| match p {
+            Problem::Cap {
+                side: Side::Above,
+                outer: None,
+                holes,
+            } => !holes.iter().all(|h| self.carried.contains(h)),
+            _ => true,
+        });
     }
 
     fn close(&mut self, mut r: Region, out: &mut Vec<Region>) {
@@ -612,13 +639,17 @@ impl Assembler {
     }
 
     /// Ends `r` on the keyhole loop of `joined` in `section` and opens the regions of its
-    /// contour and holes on their rings (the slits' feet inserted).
+    /// contour and holes on their rings (the slits' feet inserted), or, where the next
+    /// transition carries the loop's holes on (`through`: the mouth is closed on this slice
+    /// only), lets `r` run on with the loop as one of its curves, in the contour's place.
+    #[allow(clippy::too_many_arguments)] // the region, its loop and where it goes next
     fn start_from_keyhole(
         &mut self,
         section: &Section,
         joined: &Joined,
         k: Keyhole,
         mut r: Region,
+        through: bool,
         next: &mut [Option<Region>],
         closed: &mut Vec<Region>,
     ) {
@@ -628,6 +659,11 @@ impl Assembler {
                 slice: section.index,
             },
         });
+        if through {
+            next[joined.contour] = Some(r);
+            self.carried.extend(joined.holes.iter().copied());
+            return;
+        }
         self.close(r, closed);
         let ids = std::iter::once(&joined.contour).chain(&joined.holes);
         for (n, (&c, points)) in ids.zip(k.rings).enumerate() {
@@ -660,6 +696,7 @@ impl Assembler {
         ahead: &[Transition],
     ) -> Result<Vec<Region>> {
         let mut closed = Vec::new();
+        self.carried.clear();
         let mut next: Vec<Option<Region>> =
             vec![None; t.upper.as_ref().map_or(0, |u| u.contours.len())];
         for (p, s) in t.problems.iter().zip(solved) {
@@ -790,7 +827,16 @@ impl Assembler {
                             .and_then(|n| upper_keyholes[n].take());
                         match key {
                             Some((j, key)) if j.is_keyhole() => {
-                                self.start_from_keyhole(up, &j, key, r, &mut next, &mut closed)
+                                let through = runs_through(ahead, j.contour);
+                                self.start_from_keyhole(
+                                    up,
+                                    &j,
+                                    key,
+                                    r,
+                                    through,
+                                    &mut next,
+                                    &mut closed,
+                                )
                             }
                             _ => {
                                 r.curves.push(contour_curve(up, k));
@@ -871,7 +917,18 @@ impl Assembler {
                             r.curves.push(contour_curve(up, upper.contour));
                             next[upper.contour] = Some(r);
                         }
-                        Some(k) => self.start_from_keyhole(up, upper, k, r, &mut next, &mut closed),
+                        Some(k) => {
+                            let through = runs_through(ahead, upper.contour);
+                            self.start_from_keyhole(
+                                up,
+                                upper,
+                                k,
+                                r,
+                                through,
+                                &mut next,
+                                &mut closed,
+                            )
+                        }
                     }
                 }
                 _ => return Err(Error::Internal("problem and solution do not match".into())),
@@ -913,7 +970,8 @@ pub fn run(
         let end = arrived.is_none();
         held.extend(arrived);
         while held.len() > 2 || (end && !held.is_empty()) {
-            let Some(t) = held.pop_front() else { break };
+            let Some(mut t) = held.pop_front() else { break };
+            assembler.drop_carried_caps(&mut t);
             let start = Instant::now();
             // The problems of one transition are independent: solve them in parallel, in order.
             let solved: Result<Vec<Solved>> = t
