@@ -296,6 +296,23 @@ fn a_c_shaped_band_caps_onto_its_ridge_and_stays_closed() {
     assert!(off.is_empty());
 }
 
+/// A block (x 10–70, y 10–50, slices 1–8) with a cavity (x 30–50, y 20–44) on slices 3–8,
+/// which opens through the block's side by a narrow mouth (x 37–43) on the slices
+/// `mouth_open` says.
+fn block_with_cavity(mouth_open: impl Fn(usize) -> bool) -> common::VecImages {
+    solid_images(|k, x, y| {
+        let block = (10.0..=70.0).contains(&x) && (10.0..=50.0).contains(&y);
+        let cavity = (30.0..=50.0).contains(&x) && (20.0..=44.0).contains(&y);
+        let mouth = (37.0..=43.0).contains(&x) && y > 44.0;
+        let void = match k {
+            1..=2 => false,
+            3..=8 => cavity || (mouth && mouth_open(k)),
+            _ => true,
+        };
+        block && !void
+    })
+}
+
 /// A block with a cavity that opens through one side by a narrow mouth on slices 3–5, and
 /// whose mouth is closed on slices 6–8: a bay closing into a hole. The hole has no hole below
 /// to continue from; joined to the block's contour by a slit across the closed mouth, the
@@ -305,19 +322,7 @@ fn a_c_shaped_band_caps_onto_its_ridge_and_stays_closed() {
 /// closed, and none is.
 #[test]
 fn a_bay_closing_into_a_hole_joins_it_by_a_slit() {
-    let block = |x: f64, y: f64| (10.0..=70.0).contains(&x) && (10.0..=50.0).contains(&y);
-    let images = solid_images(|k, x, y| {
-        let cavity = (30.0..=50.0).contains(&x) && (20.0..=44.0).contains(&y);
-        let mouth = (37.0..=43.0).contains(&x) && y > 44.0;
-        let void = match k {
-            1..=2 => false,
-            3..=5 => cavity || mouth,
-            6..=8 => cavity,
-            _ => true,
-        };
-        block(x, y) && !void
-    });
-    let tris = closed_mesh(&images);
+    let tris = closed_mesh(&block_with_cavity(|k| k <= 5));
     // The cavity (x 30–50, y 20–44) is void from slice 3 to 8: no triangle 3 mm inside it
     // (its floor and ceiling lie beyond the slices, within half a spacing).
     assert_none_inside(&tris, [33.0, 23.0, 3.2], [47.0, 41.0, 7.8]);
@@ -334,19 +339,7 @@ fn a_bay_closing_into_a_hole_joins_it_by_a_slit() {
 /// the tolerance, each side its own way), the rest at the bay's floor.
 #[test]
 fn a_mouth_closed_on_one_slice_runs_through_its_keyhole() {
-    let block = |x: f64, y: f64| (10.0..=70.0).contains(&x) && (10.0..=50.0).contains(&y);
-    let images = solid_images(|k, x, y| {
-        let cavity = (30.0..=50.0).contains(&x) && (20.0..=44.0).contains(&y);
-        let mouth = (37.0..=43.0).contains(&x) && y > 44.0;
-        let void = match k {
-            1..=2 => false,
-            3..=4 | 6..=8 => cavity || mouth,
-            5 => cavity,
-            _ => true,
-        };
-        block(x, y) && !void
-    });
-    let tris = closed_mesh(&images);
+    let tris = closed_mesh(&block_with_cavity(|k| k != 5));
     let crossing = common::crossing_faces(&tris, 1e-6);
     eprintln!(
         "{} of {} faces cross another",
