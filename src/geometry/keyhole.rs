@@ -622,6 +622,52 @@ fn emit<T: Copy>(
     }
 }
 
+/// The keyhole loop `joined` (counter-clockwise: the material on its left) with its slits
+/// opened into channels `width` wide: every point the loop visits twice (a slit's feet and
+/// interior points) moves `width / 2` to the left of the slit's direction there, so the two
+/// passes of a slit part, each into the material beside it. For a loop a region runs on
+/// through (see `stages::s3_correspondence::Problem::Link`), where no other region shares
+/// its points: its fitted curve takes each pass of a zero-width slit its own way, and the
+/// passes crossed. `None` if the opened loop would cross itself (a slit shorter than the
+/// channel is wide, a foot at a sharp corner).
+pub fn open_slits(joined: &[Point], width: f64) -> Option<Vec<Point>> {
+    use std::collections::HashMap;
+    let n = joined.len();
+    if n < 3 || !(width.is_finite() && width > 0.0) {
+        return None;
+    }
+    let key = |p: &Point| p.map(f64::to_bits);
+    let mut visits: HashMap<[u64; 2], usize> = HashMap::new();
+    for p in joined {
+        *visits.entry(key(p)).or_default() += 1;
+    }
+    let twice = |p: &Point| visits[&key(p)] >= 2;
+    let out: Vec<Point> = (0..n)
+        .map(|i| {
+            let p = joined[i];
+            if !twice(&p) {
+                return p;
+            }
+            // Along the slit: a foot takes the direction of its slit, not of the ring, so
+            // the passes part across the slit and the ring only gets a notch.
+            let (prev, next) = (joined[(i + n - 1) % n], joined[(i + 1) % n]);
+            let (a, b) = match (twice(&prev), twice(&next)) {
+                (false, true) => (p, next),
+                (true, false) => (prev, p),
+                _ => (prev, next),
+            };
+            let d = [b[0] - a[0], b[1] - a[1]];
+            let len = d[0].hypot(d[1]);
+            if len.is_nan() || len <= 0.0 {
+                return p;
+            }
+            let h = 0.5 * width / len;
+            [p[0] - h * d[1], p[1] + h * d[0]]
+        })
+        .collect();
+    (!crate::geometry::polygon::crosses_itself(&out)).then_some(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -633,6 +679,69 @@ mod tests {
 
     fn between(a: Point, b: Point, k: usize) -> Vec<Point> {
         (1..k).map(|s| lerp(a, b, s as f64 / k as f64)).collect()
+    }
+
+    /// A block's keyhole loop, its slit opened into a channel: the points off the slit stay,
+    /// the slit's two passes part by the width, the loop stays simple and counter-clockwise
+    /// and loses about the channel's area.
+    #[test]
+    fn opened_slits_part_by_their_width() {
+        let block = vec![[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]];
+        let hole = vec![[15.0, 8.0], [15.0, 14.0], [25.0, 14.0], [25.0, 8.0]];
+        // From the top edge's midpoint down to the hole's top edge.
+        let s = Slit {
+            from: Foot {
+                ring: 0,
+                edge: 2,
+                t: 0.5,
+            },
+            to: Foot {
+                ring: 1,
+                edge: 1,
+                t: 0.5,
+            },
+        };
+        let rings: Vec<Vec<Point>> = [block.as_slice(), hole.as_slice()]
+            .iter()
+            .enumerate()
+            .map(|(r, pts)| with_feet(pts, r, &[s], lerp))
+            .collect();
+        let refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
+        let joined = keyhole_loop(&refs, &[s], |_, _| 4, between);
+        let opened = open_slits(&joined, 0.4).expect("simple");
+        assert_eq!(opened.len(), joined.len());
+        let moved: Vec<(Point, Point)> = joined
+            .iter()
+            .zip(&opened)
+            .filter(|(a, b)| a != b)
+            .map(|(a, b)| (*a, *b))
+            .collect();
+        // The slit's feet and its 3 interior points, twice each.
+        assert_eq!(moved.len(), 10, "{moved:?}");
+        for (a, b) in &moved {
+            assert!((dist(*a, *b) - 0.2).abs() < 1e-12, "{a:?} → {b:?}");
+        }
+        // Interior slit points: x = 20 ± 0.2, the passes 0.4 apart.
+        let xs: Vec<f64> = moved
+            .iter()
+            .filter(|(a, _)| a[1] > 14.0 && a[1] < 20.0)
+            .map(|(_, b)| b[0])
+            .collect();
+        assert!(xs
+            .iter()
+            .all(|x| (x - 19.8).abs() < 1e-9 || (x - 20.2).abs() < 1e-9));
+        assert!(xs.iter().any(|x| (x - 19.8).abs() < 1e-9));
+        assert!(xs.iter().any(|x| (x - 20.2).abs() < 1e-9));
+        let (before, after) = (signed_area(&joined), signed_area(&opened));
+        assert!(
+            after > 0.0 && before - after > 0.3 * 6.0 * 0.4,
+            "{before} → {after}"
+        );
+        assert!(before - after < 1.2 * 6.0 * 0.4, "{before} → {after}");
+        // A loop without slits comes back as it was; a channel wider than the block would
+        // cross its sides: no opening.
+        assert_eq!(open_slits(&block, 0.4), Some(block.clone()));
+        assert_eq!(open_slits(&joined, 100.0), None);
     }
 
     /// A 40 × 20 block with a 10 × 10 hole near its top edge; and the block on the slice

@@ -21,7 +21,7 @@ use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
 use crate::geometry::capping::{cap, cap_height, material_width};
 use crate::geometry::conform::{conform, remove_spikes, weld};
-use crate::geometry::keyhole::{join_rings, search_step, slits};
+use crate::geometry::keyhole::{join_rings, open_slits, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
 use crate::geometry::polygon::{contains, signed_area};
@@ -494,12 +494,19 @@ pub struct Assembler {
     /// Holes of the current top section that a region carries through its keyhole loop:
     /// the next transition's caps of them are dropped (see [`Assembler::drop_carried_caps`]).
     carried: Vec<usize>,
+    /// Width of the channels the slits of such a loop open into (mm; see
+    /// [`crate::geometry::keyhole::open_slits`]).
+    channel_mm: f64,
 }
 
 impl Assembler {
-    pub fn new(max_curves: usize) -> Self {
+    /// `cell_mm`: the distance maps' cell; the slits of loops that regions run through open
+    /// into channels four cells wide (0.4 mm at the default tolerance, within which the
+    /// fitted curve holds each pass apart from the other).
+    pub fn new(max_curves: usize, cell_mm: f64) -> Self {
         Assembler {
             max_curves,
+            channel_mm: 4.0 * cell_mm,
             ..Default::default()
         }
     }
@@ -660,6 +667,19 @@ impl Assembler {
             },
         });
         if through {
+            // Inside the region the slits open into channels (only the slits' points move;
+            // no other region holds this loop).
+            if let Some(last) = r.curves.last_mut() {
+                let frame = &section.frame;
+                let plane: Vec<Point> = last.points.iter().map(|&p| frame.to_plane(p)).collect();
+                if let Some(opened) = open_slits(&plane, self.channel_mm) {
+                    for (q, (o, p)) in last.points.iter_mut().zip(opened.iter().zip(&plane)) {
+                        if o != p {
+                            *q = frame.to_patient(*o);
+                        }
+                    }
+                }
+            }
             next[joined.contour] = Some(r);
             self.carried.extend(joined.holes.iter().copied());
             return;
@@ -962,7 +982,7 @@ pub fn run(
         stage: STAGE,
         ..Default::default()
     };
-    let mut assembler = Assembler::new(max_curves);
+    let mut assembler = Assembler::new(max_curves, cell_mm);
     // Two transitions are held back: caps that start regions are placed from the links above.
     let mut held: VecDeque<Transition> = VecDeque::with_capacity(3);
     for arrived in input.iter().map(Some).chain(std::iter::once(None)) {
