@@ -101,14 +101,15 @@ pub fn tessellate_each(
     // samples are added: check again (a few rounds settle it).
     let period = s.u_knots().period();
     for _ in 0..SLIT_ROUNDS {
-        let (mut extra, mut gaps) = ends.0.slit_samples(&us, period);
-        let (more, more_gaps) = ends.1.slit_samples(&us, period);
-        extra.extend(more);
-        gaps.extend(more_gaps);
-        if extra.is_empty() {
+        let mut gaps = ends.0.slit_gaps(&us, period);
+        gaps.extend(ends.1.slit_gaps(&us, period));
+        if gaps.is_empty() {
             break;
         }
-        us.extend(extra);
+        // Three evenly spaced samples in each.
+        us.extend(gaps.iter().flat_map(|&(a, b)| {
+            (1..=3).map(move |q| (a + (b - a) * q as f64 / 4.0).rem_euclid(period))
+        }));
         merge_samples(&mut us, &gaps, period);
         ends = (
             End::new(s, &us, v0, bottom.clone()),
@@ -277,7 +278,7 @@ impl End {
             let step = (raw - prev).rem_euclid(period);
             // A point that projects behind the previous one (where the curve rounds the tip
             // of a ridge loop, or backs along a slit) still moves on by a little: two points
-            // at one parameter would share their row vertices (see `slit_samples`).
+            // at one parameter would share their row vertices (see `slit_gaps`).
             let least = 0.25 * steps[i];
             let next = if step < 0.5 * period {
                 prev + step.max(least)
@@ -303,18 +304,16 @@ impl End {
         End { points, t, offsets }
     }
 
-    /// Row samples to add where the loop visits a vertex twice: the zip joins each loop
-    /// point to the row samples from the one before it to the one before the next point, so
-    /// the two visits share a row vertex (an edge of four triangles) unless a sample lies
-    /// between the point after one visit and the other visit. Either way round the loop (a
-    /// ridge loop visits the points beside its tips either side of the tip), three evenly
-    /// spaced samples are added where fewer lie there. Also returns those gaps, as (a, b)
-    /// with a < b.
-    fn slit_samples(&self, us: &[f64], period: f64) -> (Vec<f64>, Vec<(f64, f64)>) {
+    /// Where the loop visits a vertex twice, the gaps (a, b), a < b, that need row samples:
+    /// the zip joins each loop point to the row samples from the one before it to the one
+    /// before the next point, so the two visits share a row vertex (an edge of four
+    /// triangles) unless a sample lies between the point after one visit and the other
+    /// visit. Either way round the loop (a ridge loop visits the points beside its tips
+    /// either side of the tip), a gap holding fewer than three samples is listed.
+    fn slit_gaps(&self, us: &[f64], period: f64) -> Vec<(f64, f64)> {
         use std::collections::HashMap;
         let key = |p: &P3| p.map(f64::to_bits);
         let mut first: HashMap<[u64; 3], usize> = HashMap::new();
-        let mut out = Vec::new();
         let mut gaps = Vec::new();
         for (j, p) in self.points.iter().enumerate() {
             let Some(&i) = first.get(&key(p)) else {
@@ -329,14 +328,12 @@ impl End {
                 if b <= a || b.is_nan() {
                     continue;
                 }
-                let between = us.iter().filter(|&&u| within(u, a, b, period)).count();
-                if between < 3 {
-                    out.extend((1..=3).map(|q| (a + (b - a) * q as f64 / 4.0).rem_euclid(period)));
+                if us.iter().filter(|&&u| within(u, a, b, period)).count() < 3 {
                     gaps.push((a, b));
                 }
             }
         }
-        (out, gaps)
+        gaps
     }
 }
 

@@ -660,26 +660,26 @@ impl Assembler {
         next: &mut [Option<Region>],
         closed: &mut Vec<Region>,
     ) {
+        let mut points = k.joined;
+        if through {
+            // Inside the region the slits open into channels (only the slits' points move;
+            // no other region holds this loop).
+            let plane: Vec<Point> = points.iter().map(|&p| section.frame.to_plane(p)).collect();
+            if let Some(opened) = open_slits(&plane, self.channel_mm) {
+                for (q, (o, p)) in points.iter_mut().zip(opened.iter().zip(&plane)) {
+                    if o != p {
+                        *q = section.frame.to_patient(*o);
+                    }
+                }
+            }
+        }
         r.curves.push(RegionCurve {
-            points: k.joined,
+            points,
             origin: CurveOrigin::Keyhole {
                 slice: section.index,
             },
         });
         if through {
-            // Inside the region the slits open into channels (only the slits' points move;
-            // no other region holds this loop).
-            if let Some(last) = r.curves.last_mut() {
-                let frame = &section.frame;
-                let plane: Vec<Point> = last.points.iter().map(|&p| frame.to_plane(p)).collect();
-                if let Some(opened) = open_slits(&plane, self.channel_mm) {
-                    for (q, (o, p)) in last.points.iter_mut().zip(opened.iter().zip(&plane)) {
-                        if o != p {
-                            *q = frame.to_patient(*o);
-                        }
-                    }
-                }
-            }
             next[joined.contour] = Some(r);
             self.carried.extend(joined.holes.iter().copied());
             return;
