@@ -114,7 +114,7 @@ fn a_fan_joins_a_finger_the_other_loop_lacks_without_crossing() {
         chord_join_folds(&a, &b),
         "chord length should fold this join"
     );
-    let m = fan_match(&a, &b).unwrap();
+    let m = fan_match(&a, &b, f64::INFINITY).unwrap();
     assert_eq!(m.blends, 0);
     assert_eq!(m.path.first(), Some(&(0.0, 0.0)));
     assert_eq!(m.path.last(), Some(&(1.0, 1.0)));
@@ -129,9 +129,28 @@ fn a_fan_joins_a_finger_the_other_loop_lacks_without_crossing() {
 }
 
 #[test]
+fn a_fan_keeps_its_rulings_within_the_slack_of_the_shortest() {
+    let (a, b) = loops();
+    let shortest = fan_match(&a, &b, 1.0).unwrap();
+    let any = fan_match(&a, &b, f64::INFINITY).unwrap();
+    assert!(any.blends <= shortest.blends);
+    assert!(shortest.length <= any.length);
+    for slack in [1.0, 1.1, 1.5, 2.0, 4.0] {
+        let m = fan_match(&a, &b, slack).unwrap();
+        assert!(
+            m.length <= slack * shortest.length + 1e-9,
+            "slack {slack}: rulings {} mm, shortest {} mm",
+            m.length,
+            shortest.length
+        );
+        assert!(m.blends <= shortest.blends, "slack {slack}");
+    }
+}
+
+#[test]
 fn fanned_surface_fits_and_meshes_without_crossing_itself() {
     let (a, b) = loops();
-    let fans = fan_tables(&[Some(a.clone()), Some(b.clone())]).unwrap();
+    let fans = fan_tables(&[Some(a.clone()), Some(b.clone())], f64::INFINITY).unwrap();
     assert_eq!(fans.starts[0], 0);
     for t in fans.tables.iter().flatten() {
         assert_eq!((t[0], t[t.len() - 1]), (0.0, 1.0));
@@ -162,7 +181,7 @@ fn fanned_surface_fits_and_meshes_without_crossing_itself() {
 fn three_loops_fan_where_their_joins_fold_and_keep_chord_length_elsewhere() {
     let (a, b) = loops();
     // a → b folds; b → b (the same loop again) does not.
-    let fans = fan_tables(&[Some(a), Some(b.clone()), Some(b), None]).unwrap();
+    let fans = fan_tables(&[Some(a), Some(b.clone()), Some(b), None], f64::INFINITY).unwrap();
     assert_eq!(fans.starts.len(), 4);
     assert!(fans.tables[3].is_none());
     let (t1, t2) = (

@@ -513,6 +513,8 @@ pub struct FanMatch {
     pub path: Vec<(f64, f64)>,
     /// Proper self-crossings of the matched samples' blends (as [`chord_warps`] counts).
     pub blends: usize,
+    /// Total length of the matching's rulings (mm, one per matched sample pair).
+    pub length: f64,
 }
 
 /// Starts of loop `b` tried by [`fan_match`], evenly spaced along it.
@@ -520,8 +522,14 @@ const FAN_STARTS: usize = 16;
 
 /// The matching of two loops by the shortest rulings in all, where a ruling may fan: dynamic
 /// time warping of their [`WARP_SAMPLES`] samples with the steps (1, 1), (1, 0) and (0, 1),
-/// for each of [`FAN_STARTS`] starts of `b` (its own start among them), keeping the one whose
-/// blends cross themselves least (then the shorter rulings, then the earlier start). `None`
+/// for each of [`FAN_STARTS`] starts of `b` (its own start among them), keeping of those
+/// whose rulings are at most `slack` times as long in all as the shortest start's the one
+/// whose blends cross themselves least (then the shorter rulings, then the earlier start).
+/// A start far from where the loops correspond is matched by one fan over half the loop,
+/// whose blends collapse and so cross little (GE head surface 233: 5 crossings at 10.6
+/// times the shortest rulings' length, against 6 at the shortest); yet a lobe's walls may
+/// need rulings twice as long to fan across its root (surface 135). Stage 6 tries both
+/// ([`FAN_SLACKS`]). `None`
 /// for a loop of fewer than three points.
 ///
 /// [`matched_warp`] bounds its speed, so that one loop's fractions stay a function of the
@@ -531,7 +539,7 @@ const FAN_STARTS: usize = 16;
 /// parameterised by the matching's own steps, so the lobe's walls fan onto the points the
 /// other loop has at its root, as a cap's walls fan onto its point. A matching with a bad
 /// start cannot recover (it is closed at both ends), hence the several starts.
-pub fn fan_match(a: &[Point], b: &[Point]) -> Option<FanMatch> {
+pub fn fan_match(a: &[Point], b: &[Point], slack: f64) -> Option<FanMatch> {
     if a.len() < 3 || b.len() < 3 {
         return None;
     }
@@ -542,36 +550,38 @@ pub fn fan_match(a: &[Point], b: &[Point]) -> Option<FanMatch> {
         .map(|k| lb.vertex_at(k as f64 / FAN_STARTS as f64))
         .collect();
     starts.dedup();
-    let mut best: Option<(usize, f64, FanMatch)> = None;
-    for start in starts {
-        let sb = Loop::new(b, start).samples(n);
-        let (path, length) = fan_path(&sa, &sb);
-        let (pa, pb): (Vec<Point>, Vec<Point>) = path[..path.len() - 1]
-            .iter()
-            .map(|&(i, j)| (sa[i % n], sb[j % n]))
-            .unzip();
-        let blends = blends_crossing(&pa, &pb);
-        if best
-            .as_ref()
-            .is_none_or(|(c, l, _)| (blends, length) < (*c, *l))
-        {
+    let tried: Vec<FanMatch> = starts
+        .into_iter()
+        .map(|start| {
+            let sb = Loop::new(b, start).samples(n);
+            let (path, length) = fan_path(&sa, &sb);
+            let (pa, pb): (Vec<Point>, Vec<Point>) = path[..path.len() - 1]
+                .iter()
+                .map(|&(i, j)| (sa[i % n], sb[j % n]))
+                .unzip();
+            let blends = blends_crossing(&pa, &pb);
             let path = path
                 .iter()
                 .map(|&(i, j)| (i as f64 / n as f64, j as f64 / n as f64))
                 .collect();
-            best = Some((
+            FanMatch {
+                start_b: start,
+                path,
                 blends,
                 length,
-                FanMatch {
-                    start_b: start,
-                    path,
-                    blends,
-                },
-            ));
-        }
-    }
-    best.map(|b| b.2)
+            }
+        })
+        .collect();
+    let shortest = tried.iter().map(|m| m.length).fold(f64::INFINITY, f64::min);
+    tried
+        .into_iter()
+        .filter(|m| m.length <= slack * shortest)
+        .min_by(|x, y| x.blends.cmp(&y.blends).then(x.length.total_cmp(&y.length)))
 }
+
+/// The slacks of [`fan_match`] that stage 6 tries: any start, and starts whose rulings are
+/// at most half as long again as the shortest.
+pub const FAN_SLACKS: [f64; 2] = [f64::INFINITY, 1.5];
 
 /// A region's loops (bottom to top, `None` for a cap point) joined by [`fan_match`] where
 /// chord length folds the join ([`chord_join_folds`]), and at chord length elsewhere: where
@@ -585,7 +595,7 @@ pub fn fan_match(a: &[Point], b: &[Point]) -> Option<FanMatch> {
 /// that move comes first; where both joins move loop k on, they move together. So every
 /// join's rulings are kept, and each loop's fraction is a non-decreasing function of one
 /// common parameter, each step of which moves some loop by one sample.
-pub fn fan_tables(loops: &[Option<Vec<Point>>]) -> Option<RegionFans> {
+pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64) -> Option<RegionFans> {
     let idx: Vec<usize> = (0..loops.len())
         .filter(|&k| loops[k].as_ref().is_some_and(|l| l.len() >= 3))
         .collect();
@@ -608,7 +618,7 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>]) -> Option<RegionFans> {
             b.rotate_left(starts[w[1]]);
         }
         let join = if chord_join_folds(&a, &b) {
-            fan_match(&a, &b)
+            fan_match(&a, &b, slack)
         } else {
             None
         };

@@ -13,7 +13,9 @@ use rayon::prelude::*;
 use super::{s7_skinning, Control, StageStats};
 use crate::bspline::common_knots::{fit_common_densest, CommonFit};
 use crate::bspline::fit::FitOptions;
-use crate::geometry::alignment::{chord_join_folds, chord_warps, fan_tables};
+use crate::geometry::alignment::{
+    chord_join_folds, chord_warps, fan_tables, RegionFans, FAN_SLACKS,
+};
 use crate::region::Region;
 use crate::section::SliceFrame;
 use crate::{Error, Result};
@@ -70,7 +72,8 @@ fn fit_warped(
 /// judges a lobe's walk: [`s7_skinning::crossing_faces_of`]). Where one loop has a lobe the
 /// next lacks, no join at bounded speed keeps their rulings apart, and the bands between a
 /// contour and an intermediate contour or keyhole loop are where that happens most (GE head:
-/// 8 518 of the 13 821 faces crossing their own surface were in two-loop bands).
+/// 8 518 of the 13 821 faces crossing their own surface were in two-loop bands). Each of
+/// [`FAN_SLACKS`] is tried: which starts a fan may take is judged by the surface too.
 fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     let Some(loops) = plane_loops(&fitted.region) else {
         return fitted;
@@ -86,21 +89,34 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     if now == 0 {
         return fitted;
     }
-    let Some(fans) = fan_tables(&loops) else {
-        return fitted;
-    };
-    let mut region = fitted.region.clone();
-    for (c, s) in region.curves.iter_mut().zip(fans.starts) {
-        c.points.rotate_left(s);
-    }
-    match fit_warped(region, &fans.tables, opts) {
-        Ok(fanned)
-            if fanned.fit.met && s7_skinning::crossing_faces_of(&fanned, opts.tolerance) < now =>
-        {
-            fanned
+    let mut best: Option<(usize, FittedRegion)> = None;
+    let mut tried: Option<RegionFans> = None;
+    for slack in FAN_SLACKS {
+        let Some(fans) = fan_tables(&loops, slack) else {
+            continue;
+        };
+        // A slack that changes no join's start gives the same fit.
+        if tried.as_ref() == Some(&fans) {
+            continue;
         }
-        _ => fitted,
+        let mut region = fitted.region.clone();
+        for (c, &s) in region.curves.iter_mut().zip(&fans.starts) {
+            c.points.rotate_left(s);
+        }
+        let refit = fit_warped(region, &fans.tables, opts);
+        tried = Some(fans);
+        let Ok(fanned) = refit else {
+            continue;
+        };
+        if !fanned.fit.met {
+            continue;
+        }
+        let crossing = s7_skinning::crossing_faces_of(&fanned, opts.tolerance);
+        if crossing < best.as_ref().map_or(now, |b| b.0) {
+            best = Some((crossing, fanned));
+        }
     }
+    best.map_or(fitted, |b| b.1)
 }
 
 /// Where the region's loops are parameterised off chord length so that consecutive loops
