@@ -49,12 +49,53 @@ pub struct Region {
     /// The first curve is the contour where the previous segment of the same chain ended
     /// (a long chain is split, see `RunConfig::max_curves`): its points count there.
     pub joint_below: bool,
-    /// Points inserted into its contour curves where keyhole slits meet them (see
-    /// `geometry::keyhole::with_feet`): on the contours, but not input points.
-    pub inserted: usize,
+    /// Points inserted into its first and its last contour curve (where keyhole slits meet
+    /// them, see `geometry::keyhole::with_feet`, and spurs, see `geometry::spur`): on the
+    /// contours, but not input points.
+    pub inserted: [usize; 2],
 }
 
 impl Region {
+    /// The region cut at the curves `joints` (indices, ascending, strictly between its
+    /// first and last) into segments that each run from one joint to the next, the joint
+    /// curve in both, as a long chain's segments are (`RunConfig::max_curves`): each
+    /// segment after the first has `joint_below`. All keep the region's id; the first keeps
+    /// its seal and the insertions into its first curve, the last those into its last.
+    pub fn split_at(&self, joints: &[usize]) -> Vec<Region> {
+        let n = self.curves.len();
+        let mut cuts: Vec<usize> = joints
+            .iter()
+            .copied()
+            .filter(|&k| k > 0 && k + 1 < n)
+            .collect();
+        cuts.sort_unstable();
+        cuts.dedup();
+        let bounds: Vec<usize> = std::iter::once(0)
+            .chain(cuts)
+            .chain(std::iter::once(n.saturating_sub(1)))
+            .collect();
+        let last = bounds.len() - 2;
+        bounds
+            .windows(2)
+            .enumerate()
+            .map(|(i, w)| Region {
+                id: self.id,
+                hole: self.hole,
+                curves: self.curves[w[0]..=w[1]].to_vec(),
+                seal: if i == 0 {
+                    self.seal.clone()
+                } else {
+                    Vec::new()
+                },
+                joint_below: if i == 0 { self.joint_below } else { true },
+                inserted: [
+                    if i == 0 { self.inserted[0] } else { 0 },
+                    if i == last { self.inserted[1] } else { 0 },
+                ],
+            })
+            .collect()
+    }
+
     /// Number of input contour points (the paper's "data" side of the reduction ratio).
     pub fn input_points(&self) -> usize {
         self.curves
@@ -63,6 +104,6 @@ impl Region {
             .filter(|c| matches!(c.origin, CurveOrigin::Contour { .. }))
             .map(|c| c.points.len())
             .sum::<usize>()
-            .saturating_sub(self.inserted)
+            .saturating_sub(self.inserted[0] + self.inserted[1])
     }
 }

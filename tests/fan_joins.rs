@@ -3,7 +3,9 @@
 //! along the whole other loop, its notches drift apart, and the surface between them crosses
 //! itself; the fan joins the finger to the
 //! points at its root, and the fitted, skinned and meshed surface (`fit_common_densest`, the
-//! mesher's arc-length projection of the end loops) does not cross itself.
+//! mesher's arc-length projection of the end loops) does not cross itself. Stacked under
+//! more loops, the fan would stand them all still: the region is cut into segments instead
+//! (`stages::s6_fitting::fit_segments`).
 
 use bskin::bspline::common_knots::fit_common_densest;
 use bskin::bspline::fit::FitOptions;
@@ -11,6 +13,9 @@ use bskin::bspline::skinning::{skin_ends, SkinEnd};
 use bskin::geometry::alignment::{align_starts, chord_join_folds, fan_match, fan_tables};
 use bskin::mesh::crossings::crossing_faces;
 use bskin::mesh::tessellate_each;
+use bskin::region::{CurveOrigin, Region, RegionCurve};
+use bskin::stages::s6_fitting;
+use bskin::stages::s7_skinning::{crossing_faces_of, crossing_faces_of_all};
 
 type P2 = [f64; 2];
 type P3 = [f64; 3];
@@ -197,4 +202,118 @@ fn three_loops_fan_where_their_joins_fold_and_keep_chord_length_elsewhere() {
         .unwrap()
         .windows(2)
         .any(|w| w[1] == w[0]));
+}
+
+/// A region of five loops 2 mm apart: the fingered circle, then the notched circle four
+/// times, each a little smaller and turned a little further than the one below, started as
+/// stage 5 starts them.
+fn fingered_stack() -> Region {
+    let (a, b) = (fingered(3.0, 40.0, 60.0), circle());
+    let mut loops: Vec<Vec<P3>> = (0..5)
+        .map(|k| {
+            if k == 0 {
+                return lift(&a, 0.0);
+            }
+            let (scale, turn) = (1.0 - 0.04 * k as f64, (4.0 * k as f64).to_radians());
+            let (c, s) = (turn.cos(), turn.sin());
+            let l: Vec<P2> = b
+                .iter()
+                .map(|p| [scale * (c * p[0] - s * p[1]), scale * (s * p[0] + c * p[1])])
+                .collect();
+            lift(&l, 2.0 * k as f64)
+        })
+        .collect();
+    let starts = align_starts(&loops.iter().map(Vec::as_slice).collect::<Vec<_>>(), 0.125);
+    for (l, s) in loops.iter_mut().zip(starts) {
+        l.rotate_left(s);
+    }
+    let curves = loops
+        .into_iter()
+        .enumerate()
+        .map(|(k, points)| RegionCurve {
+            points,
+            origin: CurveOrigin::Contour {
+                slice: k,
+                contour: 0,
+            },
+        })
+        .collect();
+    Region {
+        id: 7,
+        hole: false,
+        curves,
+        seal: Vec::new(),
+        joint_below: false,
+        inserted: [3, 2],
+    }
+}
+
+#[test]
+fn a_region_is_cut_where_its_join_folds_and_its_segments_cross_less() {
+    let region = fingered_stack();
+    let opts = FitOptions::new(0.5);
+    let whole = s6_fitting::fit(region.clone(), &opts).unwrap();
+    let before = crossing_faces_of(&whole, opts.tolerance);
+    assert!(before > 0, "the whole surface should cross itself here");
+    let segments = s6_fitting::fit_segments(region.clone(), &opts).unwrap();
+    // The one folding join (finger → circle) is a segment of its own.
+    assert_eq!(segments.len(), 2);
+    let after = crossing_faces_of_all(&segments, opts.tolerance);
+    assert!(
+        after < before,
+        "segments {after} crossing faces, whole {before}"
+    );
+    assert!(segments.iter().all(|s| s.fit.met));
+    // They meet on the second loop's own points (each segment may start it elsewhere).
+    let (lower, upper) = (&segments[0].region, &segments[1].region);
+    assert_eq!(lower.curves.len(), 2);
+    assert_eq!(upper.curves.len(), 4);
+    let mut top: Vec<String> = lower.curves[1]
+        .points
+        .iter()
+        .map(|p| format!("{p:?}"))
+        .collect();
+    let mut bottom: Vec<String> = upper.curves[0]
+        .points
+        .iter()
+        .map(|p| format!("{p:?}"))
+        .collect();
+    top.sort();
+    bottom.sort();
+    assert_eq!(top, bottom);
+    // Every input point still counts once.
+    assert!(upper.joint_below && !lower.joint_below);
+    assert_eq!(
+        lower.input_points() + upper.input_points(),
+        region.input_points()
+    );
+}
+
+#[test]
+fn a_region_split_shares_its_joints_and_keeps_its_end_insertions() {
+    let region = fingered_stack();
+    let parts = region.split_at(&[3, 1, 0, 4, 1]);
+    let spans: Vec<(usize, usize)> = parts
+        .iter()
+        .map(
+            |p| match (p.curves[0].origin, p.curves[p.curves.len() - 1].origin) {
+                (CurveOrigin::Contour { slice: a, .. }, CurveOrigin::Contour { slice: b, .. }) => {
+                    (a, b)
+                }
+                _ => unreachable!(),
+            },
+        )
+        .collect();
+    assert_eq!(spans, [(0, 1), (1, 3), (3, 4)]);
+    assert_eq!(
+        parts.iter().map(|p| p.inserted).collect::<Vec<_>>(),
+        [[3, 0], [0, 0], [0, 2]]
+    );
+    assert_eq!(
+        parts.iter().map(|p| p.joint_below).collect::<Vec<_>>(),
+        [false, true, true]
+    );
+    let total: usize = parts.iter().map(Region::input_points).sum();
+    assert_eq!(total, region.input_points());
+    assert_eq!(region.split_at(&[]), vec![region.clone()]);
 }

@@ -625,7 +625,7 @@ impl Assembler {
                 )));
             }
             if let Some(last) = r.curves.last_mut() {
-                r.inserted += ring.len().saturating_sub(last.points.len());
+                r.inserted[1] += ring.len().saturating_sub(last.points.len());
                 last.points = ring;
             }
             self.close(r, closed);
@@ -641,7 +641,7 @@ impl Assembler {
             }],
             seal: Vec::new(),
             joint_below: false,
-            inserted: 0,
+            inserted: [0, 0],
         })
     }
 
@@ -702,7 +702,7 @@ impl Assembler {
                 }],
                 seal: Vec::new(),
                 joint_below: false,
-                inserted,
+                inserted: [inserted, 0],
             });
         }
     }
@@ -743,7 +743,7 @@ impl Assembler {
                             curves: joint.into_iter().collect(),
                             seal: Vec::new(),
                             joint_below: true,
-                            inserted: 0,
+                            inserted: [0, 0],
                         };
                     }
                     next[*upper] = Some(r);
@@ -827,7 +827,7 @@ impl Assembler {
                             curves: vec![RegionCurve { points, origin }],
                             seal: seal.take().unwrap_or_default(),
                             joint_below: false,
-                            inserted: 0,
+                            inserted: [0, 0],
                         };
                         // Holes of the intermediate section over the keyhole's holes start
                         // their walls there; the keyhole joins only the others, if any.
@@ -838,7 +838,7 @@ impl Assembler {
                                 curves: vec![RegionCurve { points, origin }, contour_curve(up, h)],
                                 seal: Vec::new(),
                                 joint_below: false,
-                                inserted: 0,
+                                inserted: [0, 0],
                             });
                         }
                         let key = upper_joined
@@ -915,7 +915,7 @@ impl Assembler {
                                 curves: vec![end, contour_curve(section, k)],
                                 seal: seal.take().unwrap_or_default(),
                                 joint_below: false,
-                                inserted: 0,
+                                inserted: [0, 0],
                             });
                         }
                     }

@@ -118,7 +118,7 @@ pub fn add_arm_spurs(region: &mut Region, opts: &FitOptions) -> usize {
         // plane share them); only the spurs' points are new.
         let points = with_spurs(&lp.points, &spurs, |p| frame.to_patient(p));
         if matches!(lp.origin, CurveOrigin::Contour { .. }) {
-            region.inserted += points.len() - lp.points.len();
+            region.inserted[usize::from(end != 0)] += points.len() - lp.points.len();
         }
         region.curves[end].points = points;
         count += spurs.len();

@@ -67,14 +67,22 @@ const JUDGE_CHORDAL: f64 = 0.4;
 /// `fitted`'s curves, at [`JUDGE_CHORDAL`] fitting tolerances; `usize::MAX` if it cannot be
 /// skinned.
 pub fn crossing_faces_of(fitted: &FittedRegion, tolerance: f64) -> usize {
-    let Ok(surface) = skin(fitted) else {
-        return usize::MAX;
-    };
-    let c = &fitted.region.curves;
-    let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
+    crossing_faces_of_all(std::slice::from_ref(fitted), tolerance)
+}
+
+/// [`crossing_faces_of`] for the meshes of several surfaces together (the segments of one
+/// region, which share the curves where they meet): faces crossing a face of any of them.
+pub fn crossing_faces_of_all(fitted: &[FittedRegion], tolerance: f64) -> usize {
     let mut faces = Vec::new();
-    let chordal = JUDGE_CHORDAL * tolerance;
-    tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
+    for f in fitted {
+        let Ok(surface) = skin(f) else {
+            return usize::MAX;
+        };
+        let c = &f.region.curves;
+        let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
+        let chordal = JUDGE_CHORDAL * tolerance;
+        tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
+    }
     crossing_faces(&faces)
 }
 
