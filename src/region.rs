@@ -8,6 +8,8 @@
 //! from the slice normal (counter-clockwise for outer walls, clockwise for hole walls); a
 //! single-point curve can only be first or last.
 
+use crate::section::{dot, SliceFrame};
+
 /// Where one curve of a region comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -60,7 +62,8 @@ impl Region {
     /// first and last) into segments that each run from one joint to the next, the joint
     /// curve in both, as a long chain's segments are (`RunConfig::max_curves`): each
     /// segment after the first has `joint_below`. All keep the region's id; the first keeps
-    /// its seal and the insertions into its first curve, the last those into its last.
+    /// the insertions into its first curve and the seal triangles in that curve's plane,
+    /// the last the others.
     pub fn split_at(&self, joints: &[usize]) -> Vec<Region> {
         let n = self.curves.len();
         let mut cuts: Vec<usize> = joints
@@ -70,11 +73,15 @@ impl Region {
             .collect();
         cuts.sort_unstable();
         cuts.dedup();
+        if cuts.is_empty() {
+            return vec![self.clone()];
+        }
         let bounds: Vec<usize> = std::iter::once(0)
             .chain(cuts)
             .chain(std::iter::once(n.saturating_sub(1)))
             .collect();
         let last = bounds.len() - 2;
+        let (seal_bottom, seal_top) = self.seal_by_end();
         bounds
             .windows(2)
             .enumerate()
@@ -82,11 +89,11 @@ impl Region {
                 id: self.id,
                 hole: self.hole,
                 curves: self.curves[w[0]..=w[1]].to_vec(),
-                seal: if i == 0 {
-                    self.seal.clone()
-                } else {
-                    Vec::new()
-                },
+                seal: [
+                    if i == 0 { seal_bottom.as_slice() } else { &[] },
+                    if i == last { seal_top.as_slice() } else { &[] },
+                ]
+                .concat(),
                 joint_below: if i == 0 { self.joint_below } else { true },
                 inserted: [
                     if i == 0 { self.inserted[0] } else { 0 },
@@ -94,6 +101,31 @@ impl Region {
                 ],
             })
             .collect()
+    }
+
+    /// The seal triangles nearer the plane of the first curve, and the others (all in the
+    /// first if the region has no loop to take a plane from): a seal lies in the plane of
+    /// the end loops whose slivers it closes.
+    fn seal_by_end(&self) -> (Vec<[[f64; 3]; 3]>, Vec<[[f64; 3]; 3]>) {
+        let frame = self
+            .curves
+            .iter()
+            .find(|c| c.points.len() >= 3)
+            .and_then(|c| SliceFrame::of_loop(&c.points));
+        let (Some(frame), Some(first), Some(end)) = (
+            frame,
+            self.curves.first().and_then(|c| c.points.first()),
+            self.curves.last().and_then(|c| c.points.first()),
+        ) else {
+            return (self.seal.clone(), Vec::new());
+        };
+        let normal = frame.normal();
+        let height = |p: &[f64; 3]| dot(*p, normal);
+        let (h0, h1) = (height(first), height(end));
+        self.seal.iter().copied().partition(|t| {
+            let c: [f64; 3] = std::array::from_fn(|d| (t[0][d] + t[1][d] + t[2][d]) / 3.0);
+            (height(&c) - h0).abs() <= (height(&c) - h1).abs()
+        })
     }
 
     /// Number of input contour points (the paper's "data" side of the reduction ratio).

@@ -291,7 +291,10 @@ fn a_region_is_cut_where_its_join_folds_and_its_segments_cross_less() {
 
 #[test]
 fn a_region_split_shares_its_joints_and_keeps_its_end_insertions() {
-    let region = fingered_stack();
+    let mut region = fingered_stack();
+    // A seal triangle in each end loop's plane (z = 0 and z = 8).
+    let flat = |z: f64| [[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]];
+    region.seal = vec![flat(8.0), flat(0.0)];
     let parts = region.split_at(&[3, 1, 0, 4, 1]);
     let spans: Vec<(usize, usize)> = parts
         .iter()
@@ -313,6 +316,9 @@ fn a_region_split_shares_its_joints_and_keeps_its_end_insertions() {
         parts.iter().map(|p| p.joint_below).collect::<Vec<_>>(),
         [false, true, true]
     );
+    assert_eq!(parts[0].seal, vec![flat(0.0)]);
+    assert!(parts[1].seal.is_empty());
+    assert_eq!(parts[2].seal, vec![flat(8.0)]);
     let total: usize = parts.iter().map(Region::input_points).sum();
     assert_eq!(total, region.input_points());
     assert_eq!(region.split_at(&[]), vec![region.clone()]);
