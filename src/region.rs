@@ -8,6 +8,7 @@
 //! from the slice normal (counter-clockwise for outer walls, clockwise for hole walls); a
 //! single-point curve can only be first or last.
 
+use crate::mesh::Triangle;
 use crate::section::{dot, SliceFrame};
 
 /// Where one curve of a region comes from.
@@ -106,7 +107,7 @@ impl Region {
     /// The seal triangles nearer the plane of the first curve, and the others (all in the
     /// first if the region has no loop to take a plane from): a seal lies in the plane of
     /// the end loops whose slivers it closes.
-    fn seal_by_end(&self) -> (Vec<[[f64; 3]; 3]>, Vec<[[f64; 3]; 3]>) {
+    fn seal_by_end(&self) -> (Vec<Triangle>, Vec<Triangle>) {
         let frame = self
             .curves
             .iter()
