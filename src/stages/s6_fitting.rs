@@ -39,11 +39,11 @@ pub fn fit(region: Region, opts: &FitOptions) -> Result<FittedRegion> {
     Ok(fan_joined(fitted, opts))
 }
 
-/// Stage 6's fit of a region: [`fit`]; or, where that surface crosses itself and some
-/// joins of its loops fold at chord length, the region cut into segments
-/// ([`Region::split_at`]) at both loops of each folding join, so that each such join is a
-/// segment of its own, and the segments fitted alone, if their meshes together cross
-/// themselves less and they meet the tolerance as the whole did. One surface has one
+/// Stage 6's fit of a region: [`fit`]; or, where that surface crosses itself, the region
+/// cut into segments ([`Region::split_at`]) at both loops of each join that folds at chord
+/// length or whose band holds crossing faces ([`s7_skinning::crossing_bands`]), so that
+/// each such join is a segment of its own, and the segments fitted alone, if their meshes
+/// together cross themselves less and they meet the tolerance as the whole did. One surface has one
 /// parameterisation for all its loops: a fan that joins a lobe one loop has and the next
 /// lacks stands every loop beyond still over the lobe's stretch, and a warp that takes the
 /// lobe's drift out of one join puts it into the next (GE head surface 233: 17 loops, a
@@ -53,6 +53,13 @@ pub fn fit_segments(region: Region, opts: &FitOptions) -> Result<Vec<FittedRegio
     let n = region.curves.len();
     let whole = fit(region.clone(), opts)?;
     if n <= 2 {
+        return Ok(vec![whole]);
+    }
+    let Some(bands) = s7_skinning::crossing_bands(&whole, opts.tolerance) else {
+        return Ok(vec![whole]);
+    };
+    let now: usize = bands.iter().sum();
+    if now == 0 {
         return Ok(vec![whole]);
     }
     let Some(loops) = plane_loops(&whole.region) else {
@@ -65,12 +72,9 @@ pub fn fit_segments(region: Region, opts: &FitOptions) -> Result<Vec<FittedRegio
             _ => false,
         })
         .collect();
-    let joints: Vec<usize> = (1..n - 1).filter(|&k| folds[k - 1] || folds[k]).collect();
+    let cut = |k: usize| folds[k] || bands[k] > 0;
+    let joints: Vec<usize> = (1..n - 1).filter(|&k| cut(k - 1) || cut(k)).collect();
     if joints.is_empty() {
-        return Ok(vec![whole]);
-    }
-    let now = s7_skinning::crossing_faces_of(&whole, opts.tolerance);
-    if now == 0 {
         return Ok(vec![whole]);
     }
     let segments: Result<Vec<FittedRegion>> = region

@@ -12,9 +12,10 @@ use super::s6_fitting::{describe, FittedRegion};
 use super::{Control, StageStats};
 use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
-use crate::mesh::crossings::crossing_faces;
-use crate::mesh::tessellate_each;
+use crate::mesh::crossings::{crossing_faces, crossing_pairs};
+use crate::mesh::{tessellate_each, Triangle};
 use crate::region::{CurveOrigin, Region, RegionCurve};
+use crate::section::{dot, SliceFrame};
 use crate::{Error, Result};
 
 pub const STAGE: &str = "skinning";
@@ -75,15 +76,67 @@ pub fn crossing_faces_of(fitted: &FittedRegion, tolerance: f64) -> usize {
 pub fn crossing_faces_of_all(fitted: &[FittedRegion], tolerance: f64) -> usize {
     let mut faces = Vec::new();
     for f in fitted {
-        let Ok(surface) = skin(f) else {
-            return usize::MAX;
-        };
-        let c = &f.region.curves;
-        let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
-        let chordal = JUDGE_CHORDAL * tolerance;
-        tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
+        match judged_mesh(f, tolerance) {
+            Some(m) => faces.extend(m),
+            None => return usize::MAX,
+        }
     }
     crossing_faces(&faces)
+}
+
+/// The mesh a choice between surfaces is judged on, at [`JUDGE_CHORDAL`] fitting
+/// tolerances; `None` if the surface cannot be skinned.
+fn judged_mesh(fitted: &FittedRegion, tolerance: f64) -> Option<Vec<Triangle>> {
+    let surface = skin(fitted).ok()?;
+    let c = &fitted.region.curves;
+    let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
+    let mut faces = Vec::new();
+    let chordal = JUDGE_CHORDAL * tolerance;
+    tessellate_each(&surface, bottom, top, chordal, |t| faces.push(t));
+    Some(faces)
+}
+
+/// [`crossing_faces_of`] per band between consecutive curves (`curves − 1` of them), each
+/// crossing face counted in the band its centroid's height lies in (all curves lie in
+/// parallel planes; faces beyond an end curve count in the end band). `None` if the surface
+/// cannot be skinned or its curves have no plane.
+pub fn crossing_bands(fitted: &FittedRegion, tolerance: f64) -> Option<Vec<usize>> {
+    let curves = &fitted.region.curves;
+    let frame = curves
+        .iter()
+        .find(|c| c.points.len() >= 3)
+        .and_then(|c| SliceFrame::of_loop(&c.points))?;
+    let normal = frame.normal();
+    let height = |p: &[f64; 3]| dot(*p, normal);
+    let heights: Vec<f64> = curves
+        .iter()
+        .map(|c| c.points.first().map_or(f64::NAN, height))
+        .collect();
+    let faces = judged_mesh(fitted, tolerance)?;
+    let mut crossing = vec![false; faces.len()];
+    for (i, j) in crossing_pairs(&faces) {
+        crossing[i] = true;
+        crossing[j] = true;
+    }
+    let bands = heights.len().saturating_sub(1).max(1);
+    let rising = heights[heights.len() - 1] >= heights[0];
+    let mut counts = vec![0usize; bands];
+    for (t, _) in faces.iter().zip(&crossing).filter(|(_, &c)| c) {
+        let centroid: [f64; 3] = std::array::from_fn(|d| (t[0][d] + t[1][d] + t[2][d]) / 3.0);
+        let h = height(&centroid);
+        // The first band whose upper curve lies beyond the face.
+        let k = (1..heights.len())
+            .position(|k| {
+                if rising {
+                    h <= heights[k]
+                } else {
+                    h >= heights[k]
+                }
+            })
+            .unwrap_or(bands - 1);
+        counts[k.min(bands - 1)] += 1;
+    }
+    Some(counts)
 }
 
 pub fn skin_region(fitted: FittedRegion, tolerance: f64) -> Result<Surface> {
