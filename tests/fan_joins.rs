@@ -155,7 +155,7 @@ fn a_fan_keeps_its_rulings_within_the_slack_of_the_shortest() {
 #[test]
 fn fanned_surface_fits_and_meshes_without_crossing_itself() {
     let (a, b) = loops();
-    let fans = fan_tables(&[Some(a.clone()), Some(b.clone())], f64::INFINITY).unwrap();
+    let fans = fan_tables(&[Some(a.clone()), Some(b.clone())], f64::INFINITY, &[]).unwrap();
     assert_eq!(fans.starts[0], 0);
     for t in fans.tables.iter().flatten() {
         assert_eq!((t[0], t[t.len() - 1]), (0.0, 1.0));
@@ -186,7 +186,12 @@ fn fanned_surface_fits_and_meshes_without_crossing_itself() {
 fn three_loops_fan_where_their_joins_fold_and_keep_chord_length_elsewhere() {
     let (a, b) = loops();
     // a → b folds; b → b (the same loop again) does not.
-    let fans = fan_tables(&[Some(a), Some(b.clone()), Some(b), None], f64::INFINITY).unwrap();
+    let fans = fan_tables(
+        &[Some(a), Some(b.clone()), Some(b), None],
+        f64::INFINITY,
+        &[],
+    )
+    .unwrap();
     assert_eq!(fans.starts.len(), 4);
     assert!(fans.tables[3].is_none());
     let (t1, t2) = (
@@ -202,6 +207,21 @@ fn three_loops_fan_where_their_joins_fold_and_keep_chord_length_elsewhere() {
         .unwrap()
         .windows(2)
         .any(|w| w[1] == w[0]));
+}
+
+#[test]
+fn a_join_chord_length_does_not_fold_is_fanned_when_asked() {
+    let (_, b) = loops();
+    let pair = [Some(b.clone()), Some(b)];
+    // Stage 6 asks where the fitted surface's band crosses though chord length does not fold.
+    assert!(fan_tables(&pair, f64::INFINITY, &[]).is_none());
+    assert!(fan_tables(&pair, f64::INFINITY, &[false]).is_none());
+    let fans = fan_tables(&pair, f64::INFINITY, &[true]).expect("asked join fanned");
+    for t in fans.tables.iter() {
+        let t = t.as_ref().unwrap();
+        assert_eq!((t[0], t[t.len() - 1]), (0.0, 1.0));
+        assert!(t.windows(2).all(|w| w[1] >= w[0]));
+    }
 }
 
 /// A region of five loops 2 mm apart: the fingered circle, then the notched circle four

@@ -575,7 +575,9 @@ pub fn fan_match(a: &[Point], b: &[Point], slack: f64) -> Option<FanMatch> {
     let shortest = tried.iter().map(|m| m.length).fold(f64::INFINITY, f64::min);
     tried
         .into_iter()
-        .filter(|m| m.length <= slack * shortest)
+        // Infinite slack admits any start, also where the shortest rulings have no length
+        // (∞ · 0 is NaN, which admits none).
+        .filter(|m| slack == f64::INFINITY || m.length <= slack * shortest)
         .min_by(|x, y| x.blends.cmp(&y.blends).then(x.length.total_cmp(&y.length)))
 }
 
@@ -584,18 +586,19 @@ pub fn fan_match(a: &[Point], b: &[Point], slack: f64) -> Option<FanMatch> {
 pub const FAN_SLACKS: [f64; 2] = [f64::INFINITY, 1.5];
 
 /// A region's loops (bottom to top, `None` for a cap point) joined by [`fan_match`] where
-/// chord length folds the join ([`chord_join_folds`]), and at chord length elsewhere: where
-/// each loop should start, and its chord-length fraction at common parameters (tables as
-/// [`chord_warps`] gives them, but flat wherever the loop stands still while a neighbour
-/// fans). `None` where no join folds. Each fanned loop's start is chosen with the loop below
-/// it already started where its own join put it.
+/// chord length folds the join ([`chord_join_folds`]) or `also[k]` holds for the join of
+/// loops k and k + 1 (stage 6: its band of the fitted surface crosses), and at chord length
+/// elsewhere: where each loop should start, and its chord-length fraction at common
+/// parameters (tables as [`chord_warps`] gives them, but flat wherever the loop stands still
+/// while a neighbour fans). `None` where no join is fanned. Each fanned loop's start is
+/// chosen with the loop below it already started where its own join put it.
 ///
 /// The joins are merged into one path through all the loops' fractions: at a fraction of
 /// loop k where the join below moves only loop k − 1 (or the one above only loop k + 1),
 /// that move comes first; where both joins move loop k on, they move together. So every
 /// join's rulings are kept, and each loop's fraction is a non-decreasing function of one
 /// common parameter, each step of which moves some loop by one sample.
-pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64) -> Option<RegionFans> {
+pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64, also: &[bool]) -> Option<RegionFans> {
     let idx: Vec<usize> = (0..loops.len())
         .filter(|&k| loops[k].as_ref().is_some_and(|l| l.len() >= 3))
         .collect();
@@ -617,7 +620,7 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64) -> Option<RegionFans
             starts[w[1]] = joining_start(&Loop::new(&a, 0), &b, 0.0);
             b.rotate_left(starts[w[1]]);
         }
-        let join = if chord_join_folds(&a, &b) {
+        let join = if also.get(w[0]).copied().unwrap_or(false) || chord_join_folds(&a, &b) {
             fan_match(&a, &b, slack)
         } else {
             None

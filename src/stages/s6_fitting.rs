@@ -123,7 +123,9 @@ fn fit_warped(
 
 /// A region refitted with its loops joined by [`fan_tables`] where its surface crosses
 /// itself and the refit, within the tolerance, crosses itself less (both meshed as stage 5
-/// judges a lobe's walk: [`s7_skinning::crossing_faces_of`]). Where one loop has a lobe the
+/// judges a lobe's walk: [`s7_skinning::crossing_faces_of`]). The joins fanned are those
+/// chord length folds and those whose band of the surface holds crossing faces
+/// ([`s7_skinning::crossing_bands`]). Where one loop has a lobe the
 /// next lacks, no join at bounded speed keeps their rulings apart, and the bands between a
 /// contour and an intermediate contour or keyhole loop are where that happens most (GE head:
 /// 8 518 of the 13 821 faces crossing their own surface were in two-loop bands). Each of
@@ -132,21 +134,21 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     let Some(loops) = plane_loops(&fitted.region) else {
         return fitted;
     };
-    let folds = loops.windows(2).any(|w| match (&w[0], &w[1]) {
-        (Some(a), Some(b)) => chord_join_folds(a, b),
-        _ => false,
-    });
-    if !folds {
+    let Some(bands) = s7_skinning::crossing_bands(&fitted, opts.tolerance) else {
         return fitted;
-    }
-    let now = s7_skinning::crossing_faces_of(&fitted, opts.tolerance);
+    };
+    let now: usize = bands.iter().sum();
     if now == 0 {
         return fitted;
     }
+    // Joins whose band crosses are fanned too, though chord length does not fold them: the
+    // fitted curves' parameters are not their chord length, and bands the fit bends cross
+    // where the samples' blends do not.
+    let also: Vec<bool> = bands.iter().map(|&b| b > 0).collect();
     let mut best: Option<(usize, FittedRegion)> = None;
     let mut tried: Option<RegionFans> = None;
     for slack in FAN_SLACKS {
-        let Some(fans) = fan_tables(&loops, slack) else {
+        let Some(fans) = fan_tables(&loops, slack, &also) else {
             continue;
         };
         // A slack that changes no join's start gives the same fit.
