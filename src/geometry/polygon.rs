@@ -23,6 +23,34 @@ pub fn signed_area(pts: &[Point]) -> f64 {
     0.5 * twice
 }
 
+/// The centroid of the area the polygon encloses; the mean of its points where it encloses
+/// none (fewer than three points, or a polygon folded flat).
+pub fn centroid(pts: &[Point]) -> Point {
+    let n = pts.len();
+    if n == 0 {
+        return [0.0, 0.0];
+    }
+    let o = pts[0];
+    let (mut twice, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 1..n.saturating_sub(1) {
+        let a = [pts[i][0] - o[0], pts[i][1] - o[1]];
+        let b = [pts[i + 1][0] - o[0], pts[i + 1][1] - o[1]];
+        let cross = a[0] * b[1] - a[1] * b[0];
+        twice += cross;
+        cx += (a[0] + b[0]) * cross;
+        cy += (a[1] + b[1]) * cross;
+    }
+    let scale = pts.iter().map(|p| dist(*p, o)).fold(0.0, f64::max);
+    if twice.abs() <= 1e-12 * scale * scale {
+        let k = 1.0 / n as f64;
+        let sum = pts
+            .iter()
+            .fold([0.0, 0.0], |s, p| [s[0] + p[0], s[1] + p[1]]);
+        return [sum[0] * k, sum[1] * k];
+    }
+    [o[0] + cx / (3.0 * twice), o[1] + cy / (3.0 * twice)]
+}
+
 /// Length of the closed polygon, closing edge included.
 pub fn perimeter(pts: &[Point]) -> f64 {
     let n = pts.len();
@@ -599,6 +627,31 @@ pub(crate) fn circle(cx: f64, cy: f64, r: f64, n: usize, ccw: bool) -> Vec<Point
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn centroid_of_an_l_is_its_area_weighted_mean_either_way_round() {
+        // Unit squares at (0.5, 0.5), (1.5, 0.5) and (0.5, 1.5), 100 mm from the origin.
+        let l: Vec<Point> = [[0., 0.], [2., 0.], [2., 1.], [1., 1.], [1., 2.], [0., 2.]]
+            .iter()
+            .map(|p| [p[0] + 100.0, p[1] - 100.0])
+            .collect();
+        let want = [100.0 + 2.5 / 3.0, -100.0 + 2.5 / 3.0];
+        let mut rev = l.clone();
+        rev.reverse();
+        rev.rotate_left(2);
+        for c in [centroid(&l), centroid(&rev)] {
+            assert!(
+                (c[0] - want[0]).abs() < 1e-12 && (c[1] - want[1]).abs() < 1e-12,
+                "{c:?}"
+            );
+        }
+        // Folded flat: no area, the points' mean.
+        assert_eq!(
+            centroid(&[[0., 0.], [2., 0.], [4., 0.], [2., 0.]]),
+            [2.0, 0.0]
+        );
+        assert_eq!(centroid(&[]), [0.0, 0.0]);
+    }
 
     #[test]
     fn crossing_itself_is_a_proper_crossing_not_a_touch() {
