@@ -628,8 +628,10 @@ fn emit<T: Copy>(
 /// passes of a slit part, each into the material beside it. For a loop a region runs on
 /// through (see `stages::s3_correspondence::Problem::Link`), where no other region shares
 /// its points: its fitted curve takes each pass of a zero-width slit its own way, and the
-/// passes crossed. `None` if the opened loop would cross itself (a slit shorter than the
-/// channel is wide, a foot at a sharp corner).
+/// passes crossed. Slits open one at a time, in loop order, each only if the loop then
+/// does not cross itself, else each of its passes alone (the other staying put) if that
+/// does not (a slit shorter than the channel is wide, a foot at a sharp corner, the ring
+/// running beside a pass); `None` if the loop has slits and none opens.
 pub fn open_slits(joined: &[Point], width: f64) -> Option<Vec<Point>> {
     use std::collections::HashMap;
     let n = joined.len();
@@ -642,7 +644,7 @@ pub fn open_slits(joined: &[Point], width: f64) -> Option<Vec<Point>> {
         *visits.entry(key(p)).or_default() += 1;
     }
     let twice = |p: &Point| visits[&key(p)] >= 2;
-    let out: Vec<Point> = (0..n)
+    let moved: Vec<Point> = (0..n)
         .map(|i| {
             let p = joined[i];
             if !twice(&p) {
@@ -665,7 +667,79 @@ pub fn open_slits(joined: &[Point], width: f64) -> Option<Vec<Point>> {
             [p[0] - h * d[1], p[1] + h * d[0]]
         })
         .collect();
-    (!crate::geometry::polygon::crosses_itself(&out)).then_some(out)
+    // One slit: the points visited twice that a run of such points along the loop reaches,
+    // runs sharing a point being the two passes of one slit (or of slits sharing a foot).
+    let mut slit_of_point: HashMap<[u64; 2], usize> = HashMap::new();
+    let mut parent: Vec<usize> = Vec::new();
+    fn root(parent: &mut [usize], mut s: usize) -> usize {
+        while parent[s] != s {
+            parent[s] = parent[parent[s]];
+            s = parent[s];
+        }
+        s
+    }
+    // Start where a run cannot wrap round the loop's end.
+    let first = (0..n).find(|&i| !twice(&joined[i]))?;
+    let mut run_of = vec![usize::MAX; n];
+    let mut current: Option<usize> = None;
+    for k in 1..=n {
+        let i = (first + k) % n;
+        if !twice(&joined[i]) {
+            current = None;
+            continue;
+        }
+        let r = *current.get_or_insert_with(|| {
+            parent.push(parent.len());
+            parent.len() - 1
+        });
+        run_of[i] = r;
+        match slit_of_point.get(&key(&joined[i])) {
+            Some(&other) => {
+                let (a, b) = (root(&mut parent, other), root(&mut parent, r));
+                parent[a.max(b)] = a.min(b);
+            }
+            None => {
+                slit_of_point.insert(key(&joined[i]), r);
+            }
+        }
+    }
+    if parent.is_empty() {
+        return Some(joined.to_vec());
+    }
+    let mut slits: Vec<usize> = Vec::new();
+    for r in 0..parent.len() {
+        let s = root(&mut parent, r);
+        if !slits.contains(&s) {
+            slits.push(s);
+        }
+    }
+    let roots: Vec<usize> = (0..parent.len()).map(|r| root(&mut parent, r)).collect();
+    let mut out = joined.to_vec();
+    let mut opened = 0;
+    // Moves the points of the runs `pick` admits, if the loop then does not cross itself.
+    let mut open = |out: &mut Vec<Point>, pick: &dyn Fn(usize) -> bool| {
+        let mut trial = out.clone();
+        for i in (0..n).filter(|&i| run_of[i] != usize::MAX && pick(run_of[i])) {
+            trial[i] = moved[i];
+        }
+        let ok = !crate::geometry::polygon::crosses_itself(&trial);
+        if ok {
+            *out = trial;
+            opened += 1;
+        }
+        ok
+    };
+    for s in slits {
+        if open(&mut out, &|r| roots[r] == s) {
+            continue;
+        }
+        // A pass that cannot move (the ring runs within half the channel beside it) stays,
+        // and the other moves alone: the passes still part, by half the width.
+        for run in (0..roots.len()).filter(|&r| roots[r] == s) {
+            open(&mut out, &|r| r == run);
+        }
+    }
+    (opened > 0).then_some(out)
 }
 
 #[cfg(test)]
@@ -742,6 +816,44 @@ mod tests {
         // cross its sides: no opening.
         assert_eq!(open_slits(&block, 0.4), Some(block.clone()));
         assert_eq!(open_slits(&joined, 100.0), None);
+    }
+
+    /// Two slits: one opens; the other's channel, as wide, would leave the block on one
+    /// side, so that pass stays and only the other may move. Each slit is judged alone.
+    #[test]
+    fn each_slit_opens_only_where_the_loop_stays_simple() {
+        let block = vec![[0.0, 0.0], [40.0, 0.0], [40.0, 20.0], [0.0, 20.0]];
+        let top = vec![[15.0, 8.0], [15.0, 14.0], [25.0, 14.0], [25.0, 8.0]];
+        let low = vec![[2.0, 1.0], [2.0, 3.0], [6.0, 3.0], [6.0, 1.0]];
+        let foot = |ring, edge, t| Foot { ring, edge, t };
+        let slits = [
+            Slit {
+                from: foot(0, 2, 0.5),
+                to: foot(1, 1, 0.5),
+            },
+            Slit {
+                from: foot(0, 0, 0.1),
+                to: foot(2, 3, 0.5),
+            },
+        ];
+        let rings: Vec<Vec<Point>> = [block.as_slice(), top.as_slice(), low.as_slice()]
+            .iter()
+            .enumerate()
+            .map(|(r, pts)| with_feet(pts, r, &slits, lerp))
+            .collect();
+        let refs: Vec<&[Point]> = rings.iter().map(|r| r.as_slice()).collect();
+        let joined = keyhole_loop(&refs, &slits, |_, _| 4, between);
+        // Both open at 0.4 mm: two slits of five points, each visited twice.
+        let narrow = open_slits(&joined, 0.4).expect("both open");
+        let moved = joined.iter().zip(&narrow).filter(|(a, b)| a != b).count();
+        assert_eq!(moved, 20);
+        // At 12 mm the low slit's left pass would run out through the block's left side.
+        let wide = open_slits(&joined, 12.0).expect("the top slit opens");
+        assert!(!crate::geometry::polygon::crosses_itself(&wide));
+        assert!(wide.iter().all(|p| p[0] >= 0.0), "{wide:?}");
+        // The top slit's interior points part to x = 14 and 26.
+        let parted = |x: f64| wide.iter().any(|p| (p[0] - x).abs() < 1e-9 && p[1] > 15.0);
+        assert!(parted(14.0) && parted(26.0));
     }
 
     /// A 40 × 20 block with a 10 × 10 hole near its top edge; and the block on the slice

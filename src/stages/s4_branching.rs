@@ -408,6 +408,16 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                     join_holes(&mut il[n], &holes, &a_refs, cell_mm, &mut warn);
                 }
             }
+            // Slits (a keyhole's, carried into its zone, or the holes' joined above) open into
+            // channels, as in a loop a region runs through: the fitted curve would take each
+            // pass of a zero-width slit its own way, and they cross.
+            for c in il.iter_mut().chain(iu.iter_mut()) {
+                if let Intermediate::Loop(l) = c {
+                    if let Some(opened) = open_slits(l, 4.0 * cell_mm) {
+                        *l = opened;
+                    }
+                }
+            }
             let separate = hole_loops.iter_mut().flatten().flatten().map(|(_, l)| l);
             conform_loops(il.iter_mut().chain(iu.iter_mut()).chain(separate), cell_mm);
             Ok(Solved::Branch {
