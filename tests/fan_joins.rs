@@ -157,6 +157,9 @@ fn fanned_surface_fits_and_meshes_without_crossing_itself() {
     let (a, b) = loops();
     let fans = fan_tables(&[Some(a.clone()), Some(b.clone())], f64::INFINITY, &[]).unwrap();
     assert_eq!(fans.starts[0], 0);
+    // One join: its match's blend crossings are the region's.
+    let m = fan_match(&a, &b, f64::INFINITY).unwrap();
+    assert_eq!(fans.blends, m.blends);
     for t in fans.tables.iter().flatten() {
         assert_eq!((t[0], t[t.len() - 1]), (0.0, 1.0));
         assert!(t.windows(2).all(|w| w[1] >= w[0]));

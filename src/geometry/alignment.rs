@@ -611,6 +611,7 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64, also: &[bool]) -> Op
     // The merged path: per vertex, every loop's fraction so far (loops in `idx` order).
     let mut merged: Vec<Vec<f64>> = vec![vec![0.0], vec![1.0]];
     let mut any = false;
+    let mut blends = 0;
     for w in idx.windows(2) {
         let mut b = loops[w[1]].clone().unwrap_or_default();
         // A loop a fan has started elsewhere takes the next with it (stage 5 had started
@@ -628,6 +629,7 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64, also: &[bool]) -> Op
         let path = match join {
             Some(m) => {
                 any = true;
+                blends += m.blends;
                 b.rotate_left(m.start_b);
                 starts[w[1]] = (starts[w[1]] + m.start_b) % b.len();
                 m.path
@@ -673,7 +675,11 @@ pub fn fan_tables(loops: &[Option<Vec<Point>>], slack: f64, also: &[bool]) -> Op
             .collect();
         tables[k] = Some(table);
     }
-    Some(RegionFans { starts, tables })
+    Some(RegionFans {
+        starts,
+        tables,
+        blends,
+    })
 }
 
 /// A region's loops joined by fans ([`fan_tables`]).
@@ -684,6 +690,9 @@ pub struct RegionFans {
     /// Per loop: its chord-length fraction at the common parameters j / (len − 1), as
     /// [`chord_warps`] gives them (`None` for a cap).
     pub tables: Vec<Option<Vec<f64>>>,
+    /// Crossings of the fanned joins' blends, summed over those joins
+    /// ([`FanMatch::blends`]).
+    pub blends: usize,
 }
 
 /// The path `merged` (vertices of every loop's fraction so far, the last loop last) joined

@@ -174,6 +174,12 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
         if tried.as_ref() == Some(&fans) {
             continue;
         }
+        // The centred match is kept only if clean, and blends that cross at the samples
+        // leave little hope of that: spare the refit (most of its cost).
+        let centred_try = std::ptr::eq(loops, &centred);
+        if centred_try && (fans.blends > 0 || best.as_ref().is_some_and(|b| b.0 == 0)) {
+            continue;
+        }
         let mut region = fitted.region.clone();
         for (c, &s) in region.curves.iter_mut().zip(&fans.starts) {
             c.points.rotate_left(s);
@@ -187,7 +193,7 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
             continue;
         }
         let crossing = s7_skinning::crossing_faces_of(&fanned, opts.tolerance);
-        if std::ptr::eq(loops, &centred) && crossing > 0 {
+        if centred_try && crossing > 0 {
             // Only a clean centred match: see the doc.
             continue;
         }
