@@ -266,10 +266,12 @@ pub fn run_surfaces(
                 s5_alignment::run(regions_rx, aligned_tx, &fit_opts, ctl),
             )
         });
+        // Regions are contours, not pixels: four per worker in flight keeps every core on
+        // one while the largest is fitted.
         let fitting = scope.spawn(|| {
             cancel_on_error(
                 ctl,
-                s6_fitting::run(aligned_rx, &fit_opts, batch, fitted_tx, ctl),
+                s6_fitting::run(aligned_rx, &fit_opts, 4 * batch, fitted_tx, ctl),
             )
         });
         let skinning = scope.spawn(|| {

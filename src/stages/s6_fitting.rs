@@ -3,8 +3,10 @@
 //! vector within the tolerance, at chord-length parameters or, where those would fold the
 //! surface between two loops, at warped ones ([`chord_warps`]); where the surface still
 //! crosses itself, also with the loops joined by fans ([`fan_tables`]), kept if that crosses
-//! itself less. Regions are fitted a batch at a time in parallel and leave in arrival order.
+//! itself less. Regions are fitted as they arrive, several at once, and leave in arrival order.
 
+use std::collections::BTreeMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
@@ -172,46 +174,46 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
             })
         })
         .collect();
-    let tries = FAN_SLACKS
-        .iter()
-        .map(|&s| (&loops, s))
-        .chain([(&centred, f64::INFINITY)]);
-    let mut best: Option<(usize, FittedRegion)> = None;
-    let mut tried: Option<RegionFans> = None;
-    for (loops, slack) in tries {
-        let Some(fans) = fan_tables(loops, slack, &also) else {
-            continue;
-        };
+    // The slacks' refits are independent and run in parallel (a large region's can be all
+    // the work left in flight); the first that crosses least is kept.
+    let mut plain: Vec<RegionFans> = Vec::new();
+    for &slack in &FAN_SLACKS {
         // A slack that changes no join's start gives the same fit.
-        if tried.as_ref() == Some(&fans) {
-            continue;
+        if let Some(fans) = fan_tables(&loops, slack, &also) {
+            if plain.last() != Some(&fans) {
+                plain.push(fans);
+            }
         }
-        // The centred match is kept only if clean, and blends that cross at the samples
-        // leave little hope of that: spare the refit (most of its cost).
-        let centred_try = std::ptr::eq(loops, &centred);
-        if centred_try && (fans.blends > 0 || best.as_ref().is_some_and(|b| b.0 == 0)) {
-            continue;
-        }
+    }
+    let refit = |fans: &RegionFans| -> Option<(usize, FittedRegion)> {
         let mut region = fitted.region.clone();
         for (c, &s) in region.curves.iter_mut().zip(&fans.starts) {
             c.points.rotate_left(s);
         }
-        let refit = fit_warped(region, &fans.tables, opts);
-        tried = Some(fans);
-        let Ok(fanned) = refit else {
-            continue;
-        };
-        if !fanned.fit.met {
-            continue;
-        }
-        let crossing = s7_skinning::crossing_faces_of(&fanned, opts.tolerance);
-        if centred_try && crossing > 0 {
-            // Only a clean centred match: see the doc.
-            continue;
-        }
+        let fanned = fit_warped(region, &fans.tables, opts).ok()?;
+        fanned.fit.met.then(|| {
+            (
+                s7_skinning::crossing_faces_of(&fanned, opts.tolerance),
+                fanned,
+            )
+        })
+    };
+    let mut best: Option<(usize, FittedRegion)> = None;
+    let refits: Vec<Option<(usize, FittedRegion)>> = plain.par_iter().map(refit).collect();
+    for (crossing, fanned) in refits.into_iter().flatten() {
         if crossing < best.as_ref().map_or(now, |b| b.0) {
             best = Some((crossing, fanned));
         }
+    }
+    // The centred match is kept only if clean (see the doc), and blends that cross at the
+    // samples leave little hope of that: spare the refit (most of its cost).
+    if best.as_ref().is_some_and(|b| b.0 == 0) {
+        return best.map_or(fitted, |b| b.1);
+    }
+    let centred = fan_tables(&centred, f64::INFINITY, &also)
+        .filter(|fans| fans.blends == 0 && plain.last() != Some(fans));
+    if let Some((0, fanned)) = centred.as_ref().and_then(refit) {
+        best = Some((0, fanned));
     }
     best.map_or(fitted, |b| b.1)
 }
@@ -296,10 +298,15 @@ pub fn describe(region: &Region) -> String {
     )
 }
 
+/// Fit regions as they arrive, up to `window` at once on the rayon pool, and pass them on
+/// in arrival order. Regions differ in cost by orders of magnitude (a two-loop cap against a
+/// 17-loop chain tried with fans and segments), so fitting them a batch at a time left cores
+/// idle behind each batch's largest; here a core takes the next region as soon as it is free.
+/// `busy` is the time with at least one region in flight.
 pub fn run(
     input: Receiver<Region>,
     opts: &FitOptions,
-    batch: usize,
+    window: usize,
     out: Sender<FittedRegion>,
     ctl: &Control,
 ) -> Result<StageStats> {
@@ -307,34 +314,59 @@ pub fn run(
         stage: STAGE,
         ..Default::default()
     };
-    let mut regions = Vec::with_capacity(batch);
-    let mut next_id = 0;
-    while let Ok(first) = input.recv() {
+    let window = window.max(1);
+    let (done_tx, done_rx) = crossbeam_channel::unbounded::<(usize, Result<Vec<FittedRegion>>)>();
+    let mut finished: BTreeMap<usize, Result<Vec<FittedRegion>>> = BTreeMap::new();
+    let (mut started, mut emitted, mut next_id) = (0usize, 0usize, 0usize);
+    let mut input = Some(input);
+    let mut since: Option<Instant> = None;
+    loop {
         ctl.check()?;
-        regions.push(first);
-        while regions.len() < batch.max(1) {
-            match input.try_recv() {
-                Ok(r) => regions.push(r),
-                Err(_) => break,
-            }
+        let in_flight = started - emitted;
+        let taking = input.as_ref().filter(|_| in_flight < window);
+        if taking.is_none() && in_flight == 0 {
+            break;
         }
-        let t = Instant::now();
-        let fitted: Vec<Result<Vec<FittedRegion>>> = std::mem::take(&mut regions)
-            .into_par_iter()
-            .map(|r| fit_segments(r, opts))
-            .collect();
-        stats.busy += t.elapsed();
-        for segments in fitted {
-            // Ids in emission order, as stage 4 numbers regions: a region cut into
-            // segments moves the ids after it on.
-            for mut f in segments? {
-                f.region.id = next_id;
-                next_id += 1;
-                stats.items += 1;
-                if out.send(f).is_err() {
-                    return Ok(stats);
+        let never = crossbeam_channel::never();
+        crossbeam_channel::select! {
+            recv(taking.unwrap_or(&never)) -> region => match region {
+                Ok(region) => {
+                    since.get_or_insert_with(Instant::now);
+                    let (seq, opts, done) = (started, *opts, done_tx.clone());
+                    rayon::spawn_fifo(move || {
+                        let fitted = catch_unwind(AssertUnwindSafe(|| fit_segments(region, &opts)))
+                            .unwrap_or_else(|_| {
+                                Err(Error::Internal("fitting a region panicked".into()))
+                            });
+                        // A receiver gone means the stage stopped on an error: nothing to do.
+                        let _ = done.send((seq, fitted));
+                    });
+                    started += 1;
                 }
-            }
+                Err(_) => input = None,
+            },
+            recv(done_rx) -> done => {
+                let (seq, fitted) = done.map_err(|_| Error::Internal("fitting workers gone".into()))?;
+                finished.insert(seq, fitted);
+                // Ids in emission order, as stage 4 numbers regions: a region cut into
+                // segments moves the ids after it on.
+                while let Some(fitted) = finished.remove(&emitted) {
+                    emitted += 1;
+                    for mut f in fitted? {
+                        f.region.id = next_id;
+                        next_id += 1;
+                        stats.items += 1;
+                        if out.send(f).is_err() {
+                            return Ok(stats);
+                        }
+                    }
+                }
+                if started == emitted {
+                    if let Some(t) = since.take() {
+                        stats.busy += t.elapsed();
+                    }
+                }
+            },
         }
     }
     Ok(stats)
@@ -342,7 +374,79 @@ pub fn run(
 
 #[cfg(test)]
 mod tests {
-    use super::joins_near_crossing_bands;
+    use super::*;
+    use crate::region::{CurveOrigin, RegionCurve};
+
+    /// Two circles of `radius` 2 mm apart, of `n` points each.
+    fn tube(radius: f64, n: usize) -> Region {
+        let curves = (0..2)
+            .map(|k| RegionCurve {
+                points: (0..n)
+                    .map(|i| {
+                        let a = std::f64::consts::TAU * i as f64 / n as f64;
+                        [radius * a.cos(), radius * a.sin(), 2.0 * k as f64]
+                    })
+                    .collect(),
+                origin: CurveOrigin::Contour {
+                    slice: k,
+                    contour: 0,
+                },
+            })
+            .collect();
+        Region {
+            id: 99,
+            hole: false,
+            curves,
+            seal: Vec::new(),
+            joint_below: false,
+            inserted: [0, 0],
+        }
+    }
+
+    /// Stage 6 run over `regions` with `window` in flight: what it sent, and its result.
+    fn run_over(regions: Vec<Region>, window: usize) -> (Vec<FittedRegion>, Result<StageStats>) {
+        let (tx, rx) = crossbeam_channel::bounded(2);
+        let (out_tx, out_rx) = crossbeam_channel::unbounded();
+        // A stage that stopped early leaves the feeder's sends failing: that is not an error.
+        let feeder = std::thread::spawn(move || regions.into_iter().try_for_each(|r| tx.send(r)));
+        let result = run(rx, &FitOptions::new(0.5), window, out_tx, &Control::new());
+        let _ = feeder.join();
+        (out_rx.try_iter().collect(), result)
+    }
+
+    #[test]
+    fn regions_leave_in_arrival_order_numbered_however_long_each_takes() {
+        // Large and small regions interleaved, so later ones finish first.
+        let radii: Vec<f64> = (0..12)
+            .map(|k| if k % 3 == 0 { 60.0 } else { 5.0 + k as f64 })
+            .collect();
+        let regions = radii
+            .iter()
+            .map(|&r| tube(r, if r > 50.0 { 2000 } else { 24 }))
+            .collect();
+        let (fitted, result) = run_over(regions, 3);
+        assert_eq!(result.unwrap().items, 12);
+        assert_eq!(fitted.len(), 12);
+        for (k, (f, &r)) in fitted.iter().zip(&radii).enumerate() {
+            assert_eq!(f.region.id, k);
+            let p = f.region.curves[0].points[0];
+            assert!(
+                (p[0].hypot(p[1]) - r).abs() < 1e-9,
+                "region {k} is not the {k}th sent"
+            );
+        }
+    }
+
+    #[test]
+    fn a_region_that_fails_stops_the_stage_after_those_before_it() {
+        let mut bad = tube(8.0, 24);
+        bad.curves[1].points[5] = [f64::NAN, 0.0, 2.0];
+        let regions = vec![tube(10.0, 24), tube(12.0, 24), bad, tube(14.0, 24)];
+        let (fitted, result) = run_over(regions, 4);
+        let err = result.unwrap_err().to_string();
+        assert!(err.contains("region 99"), "{err}");
+        assert_eq!(fitted.len(), 2);
+    }
 
     #[test]
     fn a_crossing_band_fans_its_own_join_and_both_neighbours() {
