@@ -419,8 +419,47 @@ pub fn sample_params(s: &SkinnedSurface, chordal_mm: f64) -> (Vec<f64>, Vec<f64>
 }
 
 /// Join an end (loop or point) to the adjacent interior `row` (sampled at `us`). `top`: the
-/// end is above the row (v = v̄_last), else below it.
+/// end is above the row (v = v̄_last), else below it. Fins are dropped ([`without_fins`]).
 fn zip_end(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnMut(Triangle)) {
+    let mut zip = Vec::with_capacity(us.len() + end.points.len());
+    zip_end_all(us, end, row, top, &mut |t| zip.push(t));
+    without_fins(zip).into_iter().for_each(push);
+}
+
+/// The triangles of one zip without the pairs that are one triangle each way round. Where
+/// an end loop runs out along a spur and back, and both passes fan from one row vertex,
+/// the zip makes such a pair (a fin: no area, its edges used four times). [`DropFins`]
+/// drops those made one after the other; a spur branching off a spur makes them nested
+/// (the MR enhanced-multiframe series 301 at `--threshold 200`: a ridge cap's branch), and
+/// a loop starting on a spur makes one pair at the zip's start and end (series 5). Dropping
+/// a pair takes one use each way from each of its edges, so the mesh stays closed.
+fn without_fins(zip: Vec<Triangle>) -> Vec<Triangle> {
+    use std::collections::HashMap;
+    type Key = [[u64; 3]; 3];
+    // The corners from the least (by bits), keeping the turn: one key per oriented triangle.
+    let key = |t: &Triangle| -> Key {
+        let b = t.map(|p| p.map(f64::to_bits));
+        let k = (0..3).min_by_key(|&k| b[k]).unwrap_or(0);
+        [b[k], b[(k + 1) % 3], b[(k + 2) % 3]]
+    };
+    let mut open: HashMap<Key, Vec<usize>> = HashMap::new();
+    let mut keep = vec![true; zip.len()];
+    for (i, t) in zip.iter().enumerate() {
+        let reverse = key(&[t[0], t[2], t[1]]);
+        if let Some(j) = open.get_mut(&reverse).and_then(Vec::pop) {
+            keep[i] = false;
+            keep[j] = false;
+        } else {
+            open.entry(key(t)).or_default().push(i);
+        }
+    }
+    zip.into_iter()
+        .zip(keep)
+        .filter_map(|(t, k)| k.then_some(t))
+        .collect()
+}
+
+fn zip_end_all(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnMut(Triangle)) {
     let n = us.len();
     // Orientation as in the grid: a quad (row j: a→b, row j+1: d←c) gives [a,b,c], [a,c,d].
     let tri_row = |lo: P3, lo1: P3, hi: P3| if top { [lo, lo1, hi] } else { [hi, lo1, lo] };
@@ -768,6 +807,31 @@ mod tests {
         }
         fins.finish();
         out
+    }
+
+    #[test]
+    fn nested_fins_and_a_fin_across_the_zips_start_are_dropped() {
+        let (a, b, c, d, e) = (
+            [0.0; 3],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 1.0, 0.0],
+        );
+        // A spur b–c with a spur of its own at c, c–d: fins nested like brackets.
+        let nested = vec![
+            [a, e, b],
+            [a, b, c],
+            [a, c, d],
+            [a, d, c],
+            [a, c, b],
+            [a, b, e],
+        ];
+        assert!(without_fins(nested).is_empty());
+        // Out at the zip's start, back at its end; the same triangle twice the same way
+        // round stays.
+        let across = vec![[a, b, c], [d, e, c], [d, e, c], [e, a, d], [c, b, a]];
+        assert_eq!(without_fins(across), vec![[d, e, c], [d, e, c], [e, a, d]]);
     }
 
     #[test]
