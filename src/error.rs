@@ -69,6 +69,14 @@ pub enum Error {
     #[error("{option}: {message}")]
     Usage { option: String, message: String },
 
+    /// No contour in any section: there is nothing to fit, and no output is written. The
+    /// caller names the input and the threshold.
+    #[error(
+        "the segmentation is empty: no contour in any of its {sections} slices ({dropped} \
+         smaller than the minimum area dropped); nothing was written"
+    )]
+    EmptySegmentation { sections: usize, dropped: usize },
+
     /// A bug: something the code should have prevented (a panicking stage, say).
     #[error("internal error: {0}")]
     Internal(String),

@@ -231,12 +231,20 @@ fn contours(args: ContoursArgs, quiet: bool, ctl: &Control) -> Result<()> {
         );
         if summary.contours == 0 {
             eprintln!(
-                "bskin: note: the segmentation is empty: no contour at {:?} in any slice",
-                opts.threshold
+                "bskin: note: the segmentation is empty: no region {} in any slice",
+                inside(&opts.threshold)
             );
         }
     }
     Ok(())
+}
+
+/// What the threshold takes as inside, for messages: "at or above 300".
+fn inside(threshold: &Threshold) -> String {
+    match *threshold {
+        Threshold::Above(t) => format!("at or above {t}"),
+        Threshold::Range(lo, hi) => format!("from {lo} to {hi}"),
+    }
 }
 
 fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
@@ -315,7 +323,25 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let pb = progress(summary.slices, quiet, "run");
     let result = pipeline::run_surfaces(input, &config, out, ctl, &|_| pb.inc(1));
     pb.finish_and_clear();
-    let result = result?;
+    let result = result.map_err(|e| match e {
+        Error::EmptySegmentation { sections, dropped } => Error::BadInput {
+            path: input_path.clone(),
+            message: if from_stdin {
+                format!(
+                    "the contour stream is empty: no contour in any of its {sections} \
+                     slices; nothing was written"
+                )
+            } else {
+                format!(
+                    "the segmentation is empty: no region {} in any of its {sections} slices \
+                     ({dropped} smaller than the minimum area dropped); nothing was written \
+                     (--threshold, --min-area)",
+                    inside(&opts.threshold)
+                )
+            },
+        },
+        e => e,
+    })?;
 
     let surfaces = result.written.surfaces;
     // A folding mesh first: the summary shows the first few warnings only.

@@ -307,6 +307,11 @@ pub fn run_surfaces(
                     join_upstream(&mut failure, &mut summary);
                     match failure {
                         Some(_) => Err(Error::Cancelled),
+                        // Empty files under final names would read as a result.
+                        None if summary.input.contours == 0 => Err(Error::EmptySegmentation {
+                            sections: summary.input.sections,
+                            dropped: summary.input.dropped_small,
+                        }),
                         None => Ok(()),
                     }
                 },

@@ -43,6 +43,31 @@ fn missing_directory_is_an_input_error_naming_it() {
 }
 
 #[test]
+fn a_threshold_above_everything_is_an_input_error_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let dir = testdata();
+    let o = bskin(&[
+        "run",
+        dir.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--threshold",
+        "100000",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains(dir.to_str().unwrap())
+            && e.contains("segmentation is empty")
+            && e.contains("at or above 100000"),
+        "{e}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&out).into_iter().flatten().collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
 fn directory_without_dicom_says_what_it_found() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("notes.txt"), "not an image").unwrap();

@@ -65,11 +65,23 @@ fn series_of_a_single_slice() {
 }
 
 #[test]
-fn empty_segmentation_gives_no_surface_and_no_error() {
+fn empty_segmentation_is_an_error_and_writes_nothing() {
     let images = synthetic(5, 32, |_, _, _| -1000.0);
-    let s = run(&images).unwrap();
-    assert!(s.written.surfaces.is_empty());
-    assert_eq!(s.input.contours, 0);
+    let tmp = tempfile::tempdir().unwrap();
+    let e = run_images(&images, tmp.path(), &RunConfig::with_tolerance(0.5)).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            bskin::Error::EmptySegmentation {
+                sections: 5,
+                dropped: 0
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("nothing was written"), "{e}");
+    let left: Vec<_> = std::fs::read_dir(tmp.path()).unwrap().collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
 }
 
 #[test]
@@ -85,13 +97,16 @@ fn thousands_of_tiny_islands() {
             0.0
         }
     });
-    let s = run(&images).unwrap();
-    assert!(
-        s.input.dropped_small > 4000,
-        "{} dropped",
-        s.input.dropped_small
-    );
-    assert!(s.written.surfaces.is_empty());
+    // All dropped: an empty segmentation, which says how many it dropped.
+    match run(&images) {
+        Err(bskin::Error::EmptySegmentation { dropped, .. }) => {
+            assert!(dropped > 4000, "{dropped} dropped")
+        }
+        other => panic!(
+            "expected an empty segmentation, got {:?}",
+            other.map(|_| ())
+        ),
+    }
     // With no minimum area they are kept and every one becomes a small closed surface.
     let mut config = RunConfig::with_tolerance(0.5);
     config.contour.min_area_mm2 = 0.0;
