@@ -46,7 +46,17 @@ fn main() -> std::process::ExitCode {
     }
     let ctl = Control::with_flag(interrupted);
     let result = match cli.command {
-        Command::Run(args) => run(args, cli.quiet, &ctl),
+        Command::Run(args) => {
+            // A failed run leaves no output directory it made itself (remove_dir takes only
+            // an empty one: nothing the user had is touched).
+            let out = args.output.clone();
+            let made = !out.exists();
+            let r = run(args, cli.quiet, &ctl);
+            if r.is_err() && made {
+                let _ = std::fs::remove_dir(&out);
+            }
+            r
+        }
         Command::Contours(args) => contours(args, cli.quiet, &ctl),
         Command::Info(args) => info(args),
         Command::Phantom(args) => make_phantom(args, cli.quiet),

@@ -63,8 +63,20 @@ fn a_threshold_above_everything_is_an_input_error_and_writes_nothing() {
             && e.contains("at or above 100000"),
         "{e}"
     );
-    let left: Vec<_> = std::fs::read_dir(&out).into_iter().flatten().collect();
-    assert!(left.is_empty(), "left behind: {left:?}");
+    // Not even the output directory it made.
+    assert!(!out.exists());
+    // An output directory the user made stays, empty.
+    std::fs::create_dir(&out).unwrap();
+    let o = bskin(&[
+        "run",
+        dir.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--threshold",
+        "100000",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
 }
 
 #[test]
