@@ -6,7 +6,8 @@
 //!
 //! Usage: `cargo run --release --example mesh_crossings -- MESH.stl [MESH.ply [TOP]]`;
 //! with `WHERE=A,B` in the environment it also prints where the crossing faces of surfaces A
-//! and B lie, by quarter-mm of height, to tell a cap seam from a wall sweeping over a dome.
+//! and B lie, by quarter-mm of height, to tell a cap seam from a wall sweeping over a dome;
+//! with `PAIRS=FILE`, it writes every crossing pair of face indices there, to plot.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -31,6 +32,11 @@ fn main() {
         faces.len(),
         crossing.len()
     ));
+    if let Ok(out) = std::env::var("PAIRS") {
+        // `PAIRS=FILE`: every crossing pair of faces, one `i j` per line, to plot.
+        let text: String = pairs.iter().map(|(i, j)| format!("{i} {j}\n")).collect();
+        std::fs::write(&out, text).unwrap_or_else(|e| panic!("{out}: {e}"));
+    }
     let Some(ply) = args.get(1) else { return };
     let top: usize = args
         .get(2)

@@ -15,7 +15,7 @@ use bskin::mesh::crossings::crossing_faces;
 use bskin::mesh::tessellate_each;
 use bskin::region::{CurveOrigin, Region, RegionCurve};
 use bskin::stages::s6_fitting;
-use bskin::stages::s7_skinning::{crossing_faces_of, crossing_faces_of_all};
+use bskin::stages::s7_skinning::{crossings_of, crossings_of_all};
 
 type P2 = [f64; 2];
 type P3 = [f64; 3];
@@ -276,14 +276,14 @@ fn a_region_is_cut_where_its_join_folds_and_its_segments_cross_less() {
     let region = fingered_stack();
     let opts = FitOptions::new(0.5);
     let whole = s6_fitting::fit(region.clone(), &opts).unwrap();
-    let before = crossing_faces_of(&whole, opts.tolerance);
+    let before = crossings_of(&whole, opts.tolerance).own;
     assert!(before > 0, "the whole surface should cross itself here");
     let segments = s6_fitting::fit_segments(region.clone(), &opts).unwrap();
     // The folding join (finger → circle) is a segment of its own; the bands above, which
     // its fan stood still and tangled, are cut too.
     assert!(segments.len() >= 2, "{} segments", segments.len());
     assert_eq!(segments[0].region.curves.len(), 2);
-    let after = crossing_faces_of_all(&segments, opts.tolerance);
+    let after = crossings_of_all(&segments, opts.tolerance).own;
     assert!(
         after < before,
         "segments {after} crossing faces, whole {before}"

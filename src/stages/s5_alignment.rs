@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
 
-use super::s7_skinning::crossing_faces_of;
+use super::s7_skinning::{crossings_of, Crossings};
 use super::{s6_fitting, Control, StageStats};
 use crate::bspline::fit::FitOptions;
 use crate::geometry::alignment::align_starts;
@@ -37,9 +37,9 @@ fn rotate_to_starts(region: &mut Region, tolerance: f64) {
     }
 }
 
-/// Faces crossing another face ([`crossing_faces`]) in the mesh of the surface stages 6 and 7
-/// would make of `region` with `points` in place of curve `end`, aligned as stage 5 leaves
-/// it; `usize::MAX` if it cannot be fitted. A walk's linear blends with the neighbour cross
+/// The [`Crossings`] of the mesh of the surface stages 6 and 7 would make of `region` with
+/// `points` in place of curve `end`, aligned as stage 5 leaves it; [`Crossings::UNFIT`] if it
+/// cannot be fitted. A walk's linear blends with the neighbour cross
 /// themselves less often than the fitted surface does and can say better where the surface
 /// is worse (GE head surface 87: 53 → 46 crossing blends, 2 485 → 3 709 crossing faces), so
 /// the mesh itself is asked.
@@ -48,13 +48,13 @@ pub fn trial_crossings(
     end: usize,
     points: Vec<[f64; 3]>,
     opts: &FitOptions,
-) -> usize {
+) -> Crossings {
     let mut trial = region.clone();
     trial.curves[end].points = points;
     rotate_to_starts(&mut trial, opts.tolerance);
     match s6_fitting::fit(trial, opts) {
-        Ok(fitted) => crossing_faces_of(&fitted, opts.tolerance),
-        Err(_) => usize::MAX,
+        Ok(fitted) => crossings_of(&fitted, opts.tolerance),
+        Err(_) => Crossings::UNFIT,
     }
 }
 
@@ -98,7 +98,7 @@ pub fn add_arm_spurs(region: &mut Region, opts: &FitOptions) -> usize {
         };
         let mut folds = None;
         for lobe in lobes {
-            if folds == Some(0) {
+            if folds.is_some_and(|f: Crossings| f.total() == 0) {
                 break;
             }
             let mut trial = spurs.clone();
@@ -110,7 +110,7 @@ pub fn add_arm_spurs(region: &mut Region, opts: &FitOptions) -> usize {
                 None => rayon::join(|| folds_with(&spurs), || folds_with(&trial)),
             };
             folds = Some(now);
-            if trial_folds < now {
+            if trial_folds.fewer_than(&now) {
                 (spurs, folds) = (trial, Some(trial_folds));
             }
         }

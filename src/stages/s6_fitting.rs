@@ -2,8 +2,9 @@
 //! Every curve of a region — contours, intermediate contours, caps — is fitted on one knot
 //! vector within the tolerance, at chord-length parameters or, where those would fold the
 //! surface between two loops, at warped ones ([`chord_warps`]); where the surface still
-//! crosses itself, also with the loops joined by fans ([`fan_tables`]), kept if that crosses
-//! itself less. Regions are fitted as they arrive, several at once, and leave in arrival order.
+//! crosses itself (or the fence on a cap's ridge loop: [`s7_skinning::Crossings`]), also
+//! with the loops joined by fans ([`fan_tables`]), kept if that crosses less. Regions are
+//! fitted as they arrive, several at once, and leave in arrival order.
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -12,7 +13,8 @@ use std::time::Instant;
 use crossbeam_channel::{Receiver, Sender};
 use rayon::prelude::*;
 
-use super::{s7_skinning, Control, StageStats};
+use super::s7_skinning::{self, Crossings};
+use super::{Control, StageStats};
 use crate::bspline::common_knots::{fit_common_densest, CommonFit};
 use crate::bspline::fit::FitOptions;
 use crate::geometry::alignment::{
@@ -42,12 +44,13 @@ pub fn fit(region: Region, opts: &FitOptions) -> Result<FittedRegion> {
     Ok(fan_joined(fitted, opts))
 }
 
-/// Stage 6's fit of a region: [`fit`]; or, where that surface crosses itself, the region
-/// cut into segments ([`Region::split_at`]) at both loops of each join that folds at chord
-/// length or whose band holds crossing faces ([`s7_skinning::crossing_bands`]), so that
-/// each such join is a segment of its own, and the segments fitted alone, if their meshes
-/// together cross themselves less and they meet the tolerance as the whole did. One surface has one
-/// parameterisation for all its loops: a fan that joins a lobe one loop has and the next
+/// Stage 6's fit of a region: [`fit`]; or, where that surface crosses itself (or a cap's
+/// fence: [`s7_skinning::Crossings`]), the region cut into segments ([`Region::split_at`])
+/// at both loops of each join that folds at chord length or whose band holds crossing faces
+/// ([`s7_skinning::crossing_bands`]), so that each such join is a segment of its own, and
+/// the segments fitted alone, if their meshes together cross less
+/// ([`Crossings::fewer_than`]) and they meet the tolerance as the whole did. One surface has
+/// one parameterisation for all its loops: a fan that joins a lobe one loop has and the next
 /// lacks stands every loop beyond still over the lobe's stretch, and a warp that takes the
 /// lobe's drift out of one join puts it into the next (GE head surface 233: 17 loops, a
 /// tongue 40 mm long at its first; 1 318 faces crossing its own surface, against 197 in its
@@ -58,11 +61,10 @@ pub fn fit_segments(region: Region, opts: &FitOptions) -> Result<Vec<FittedRegio
     if n <= 2 {
         return Ok(vec![whole]);
     }
-    let Some(bands) = s7_skinning::crossing_bands(&whole, opts.tolerance) else {
+    let Some((bands, now)) = s7_skinning::crossing_bands(&whole, opts.tolerance) else {
         return Ok(vec![whole]);
     };
-    let now: usize = bands.iter().sum();
-    if now == 0 {
+    if now.total() == 0 {
         return Ok(vec![whole]);
     }
     let Some(loops) = plane_loops(&whole.region) else {
@@ -88,7 +90,7 @@ pub fn fit_segments(region: Region, opts: &FitOptions) -> Result<Vec<FittedRegio
     Ok(match segments {
         Ok(segments)
             if (segments.iter().all(|s| s.fit.met) || !whole.fit.met)
-                && s7_skinning::crossing_faces_of_all(&segments, opts.tolerance) < now =>
+                && s7_skinning::crossings_of_all(&segments, opts.tolerance).fewer_than(&now) =>
         {
             segments
         }
@@ -140,26 +142,26 @@ fn joins_near_crossing_bands(bands: &[usize]) -> Vec<bool> {
 }
 
 /// A region refitted with its loops joined by [`fan_tables`] where its surface crosses
-/// itself and the refit, within the tolerance, crosses itself less (both meshed as stage 5
-/// judges a lobe's walk: [`s7_skinning::crossing_faces_of`]). The joins fanned are those
+/// itself or the fence on a cap's ridge loop, and the refit, within the tolerance, crosses
+/// less ([`Crossings::fewer_than`]; both meshed as stage 5 judges a lobe's walk:
+/// [`s7_skinning::crossings_of`]). The joins fanned are those
 /// chord length folds and those whose band of the surface, or a band next to it, holds
 /// crossing faces ([`s7_skinning::crossing_bands`]). Where one loop has a lobe the
 /// next lacks, no join at bounded speed keeps their rulings apart, and the bands between a
 /// contour and an intermediate contour or keyhole loop are where that happens most (GE head:
 /// 8 518 of the 13 821 faces crossing their own surface were in two-loop bands). Each of
 /// [`FAN_SLACKS`] is tried: which starts a fan may take is judged by the surface too; and the
-/// loops matched as if moved to one centroid, kept only where that clears the region's
-/// crossings (it ignores where the loops lie, so it can sweep a band across a neighbour's:
+/// loops matched as if moved to one centroid, kept only where that leaves the region no fold
+/// (it ignores where the loops lie, so it can sweep a band across a neighbour's:
 /// kept wherever it crossed less, the GE head's crossing faces rose 5 537 → 6 384).
 fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
     let Some(loops) = plane_loops(&fitted.region) else {
         return fitted;
     };
-    let Some(bands) = s7_skinning::crossing_bands(&fitted, opts.tolerance) else {
+    let Some((bands, now)) = s7_skinning::crossing_bands(&fitted, opts.tolerance) else {
         return fitted;
     };
-    let now: usize = bands.iter().sum();
-    if now == 0 {
+    if now.total() == 0 {
         return fitted;
     }
     let also = joins_near_crossing_bands(&bands);
@@ -185,35 +187,35 @@ fn fan_joined(fitted: FittedRegion, opts: &FitOptions) -> FittedRegion {
             }
         }
     }
-    let refit = |fans: &RegionFans| -> Option<(usize, FittedRegion)> {
+    let refit = |fans: &RegionFans| -> Option<(Crossings, FittedRegion)> {
         let mut region = fitted.region.clone();
         for (c, &s) in region.curves.iter_mut().zip(&fans.starts) {
             c.points.rotate_left(s);
         }
         let fanned = fit_warped(region, &fans.tables, opts).ok()?;
-        fanned.fit.met.then(|| {
-            (
-                s7_skinning::crossing_faces_of(&fanned, opts.tolerance),
-                fanned,
-            )
-        })
+        fanned
+            .fit
+            .met
+            .then(|| (s7_skinning::crossings_of(&fanned, opts.tolerance), fanned))
     };
-    let mut best: Option<(usize, FittedRegion)> = None;
-    let refits: Vec<Option<(usize, FittedRegion)>> = plain.par_iter().map(refit).collect();
+    let mut best: Option<(Crossings, FittedRegion)> = None;
+    let refits: Vec<Option<(Crossings, FittedRegion)>> = plain.par_iter().map(refit).collect();
     for (crossing, fanned) in refits.into_iter().flatten() {
-        if crossing < best.as_ref().map_or(now, |b| b.0) {
+        if crossing.fewer_than(best.as_ref().map_or(&now, |b| &b.0)) {
             best = Some((crossing, fanned));
         }
     }
-    // The centred match is kept only if clean (see the doc), and blends that cross at the
-    // samples leave little hope of that: spare the refit (most of its cost).
-    if best.as_ref().is_some_and(|b| b.0 == 0) {
+    // The centred match is kept only where it folds nothing (see the doc), and blends that
+    // cross at the samples leave little hope of that: spare the refit (most of its cost).
+    if best.as_ref().is_some_and(|b| b.0.total() == 0) {
         return best.map_or(fitted, |b| b.1);
     }
     let centred = fan_tables(&centred, f64::INFINITY, &also)
         .filter(|fans| fans.blends == 0 && plain.last() != Some(fans));
-    if let Some((0, fanned)) = centred.as_ref().and_then(refit) {
-        best = Some((0, fanned));
+    if let Some((clean, fanned)) = centred.as_ref().and_then(refit) {
+        if clean.own == 0 && clean.fewer_than(best.as_ref().map_or(&now, |b| &b.0)) {
+            best = Some((clean, fanned));
+        }
     }
     best.map_or(fitted, |b| b.1)
 }
