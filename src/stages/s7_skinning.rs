@@ -12,6 +12,7 @@ use super::s6_fitting::{describe, FittedRegion};
 use super::{Control, StageStats};
 use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
+use crate::geometry::polygon::signed_area;
 use crate::mesh::crossings::crossing_pairs;
 use crate::mesh::{tessellate_each, Triangle};
 use crate::region::{CurveOrigin, Region, RegionCurve};
@@ -163,7 +164,14 @@ impl JudgedMesh {
 }
 
 /// How far up towards the next curve a cap loop's fence stands, in that curve's distance.
-const FENCE_HEIGHT: f64 = 0.5;
+/// The skull's caps crossed within a tenth of it; at half (before the area test below),
+/// the skull had 436 surfaces against 432 at a quarter, for the same 212 crossing faces.
+const FENCE_HEIGHT: f64 = 0.25;
+
+/// A cap loop enclosing less than this (mm²) is a ridge round a tree, not round holes.
+/// Fenced too, such loops took the abdomen's wall time 9.9 → 12.6 s (fitting busy 9.0 →
+/// 11.6 s, 289 → 296 surfaces), for the same 703 crossing faces.
+const FENCE_MIN_AREA_MM2: f64 = 0.01;
 
 /// A wall standing on a cap's ridge loop, towards the next curve, for [`JudgedMesh`]: on the
 /// far side of a ridge loop lies the surface that closes onto it from there (a hole's, for
@@ -172,13 +180,18 @@ const FENCE_HEIGHT: f64 = 0.5;
 /// chord length, a ridge loop with long slits and the contour drift apart: the skull's
 /// surface 1 ran across a corner of its ridge loop, through the cap of its hole (68 faces),
 /// though it crossed nothing of its own. The wall shares the loop's vertices, so faces that
-/// leave the loop to its own side do not count as crossing it. Nothing for a cap point, or
-/// a loop with no plane.
+/// leave the loop to its own side do not count as crossing it. Nothing for a cap point, a
+/// loop with no plane, or a ridge round a tree (no area: the surface is on both sides).
+/// Not on intermediate contours, where siblings meet: there it cut the skull into 841
+/// surfaces from 436, for 208 crossing faces from 212, at 2.6 times the time.
 fn cap_fence(lp: &[[f64; 3]], next: &[[f64; 3]]) -> Vec<Triangle> {
     let (Some(frame), Some(q)) = (SliceFrame::of_loop(lp), next.first()) else {
         return Vec::new();
     };
-    if lp.len() < 3 {
+    // A zero-width ridge loop (round a tree, no holes inside: a contour not star-shaped)
+    // is this surface's on both sides; its folds count as its own.
+    let flat: Vec<[f64; 2]> = lp.iter().map(|&p| frame.to_plane(p)).collect();
+    if lp.len() < 3 || signed_area(&flat).abs() < FENCE_MIN_AREA_MM2 {
         return Vec::new();
     }
     let n = frame.normal();
@@ -321,7 +334,7 @@ mod tests {
             let lp = square(z);
             let fence = cap_fence(&lp, &square(next));
             assert_eq!(fence.len(), 8);
-            // The wall stands half way to the next curve, on the loop.
+            // The wall stands on the loop, part of the way to the next curve.
             let top = fence.iter().flatten().map(|p| p[2]).fold(z, |a, h| {
                 if (h - z).abs() > (a - z).abs() {
                     h
@@ -329,11 +342,14 @@ mod tests {
                     a
                 }
             });
-            assert!((top - (z + 0.5 * (next - z))).abs() < 1e-12, "{top}");
-            let rise = 0.2 * (next - z);
+            assert!(
+                (top - (z + FENCE_HEIGHT * (next - z))).abs() < 1e-12,
+                "{top}"
+            );
+            let rise = 0.1 * (next - z);
             // From the loop's edge outwards, rising: a neighbour of the wall, not a crossing.
             let out = [lp[0], lp[1], [5.0, -3.0, z + rise]];
-            // From outside the loop in across its edge, at a fifth of the way up.
+            // From outside the loop in across its edge, a tenth of the way up.
             let across = [
                 [4.0, -3.0, z + rise],
                 [6.0, -3.0, z + rise],
@@ -353,6 +369,21 @@ mod tests {
             assert_eq!(crossing, [false, true, false]);
             assert_eq!(counts, Crossings { own: 0, fence: 1 });
         }
+    }
+
+    #[test]
+    fn a_ridge_round_a_tree_has_no_fence() {
+        // Out along two branches and back: zero width, zero area.
+        let ridge = vec![
+            [0.0, 0.0, 0.0],
+            [5.0, 0.0, 0.0],
+            [5.0, 4.0, 0.0],
+            [5.0, 0.0, 0.0],
+            [9.0, 0.0, 0.0],
+            [5.0, 0.0, 0.0],
+        ];
+        assert!(cap_fence(&ridge, &square(1.0)).is_empty());
+        assert!(cap_fence(&ridge[..1], &square(1.0)).is_empty());
     }
 
     #[test]
