@@ -274,7 +274,46 @@ pub fn cap_height(widths: &[(f64, f64)], spacing: f64) -> f64 {
         Some(e) => half.max(spacing * spacing / e),
         None => half,
     };
-    h.max(0.1 * spacing)
+    h.max(LEAST_CAP_HEIGHT * spacing)
+}
+
+/// The least cap height, in slice spacings: the cap stays clear of its section.
+pub const LEAST_CAP_HEIGHT: f64 = 0.1;
+
+/// Samples per side of the grid [`open_fraction`] lays over a void.
+const OPEN_SAMPLES: usize = 16;
+
+/// The fraction of a void's footprint (the closed polygon `void`) that the section across
+/// its cap leaves void too: `across` holds that section's contours in the void's plane
+/// coordinates, outer contours and holes alike, material inside an odd number of them.
+/// Sampled on a grid over the void's box, at the points inside it; 0 if none is.
+pub fn open_fraction(void: &[Point], across: &[&[Point]]) -> f64 {
+    let [x0, y0, x1, y1] = super::polygon::bbox(void);
+    let (mut inside, mut open) = (0usize, 0usize);
+    for i in 0..OPEN_SAMPLES {
+        for j in 0..OPEN_SAMPLES {
+            let p = [
+                x0 + (x1 - x0) * (i as f64 + 0.5) / OPEN_SAMPLES as f64,
+                y0 + (y1 - y0) * (j as f64 + 0.5) / OPEN_SAMPLES as f64,
+            ];
+            if !super::polygon::contains(void, p) {
+                continue;
+            }
+            inside += 1;
+            let material = across
+                .iter()
+                .filter(|c| super::polygon::contains(c, p))
+                .count()
+                % 2
+                == 1;
+            open += usize::from(!material);
+        }
+    }
+    if inside == 0 {
+        0.0
+    } else {
+        open as f64 / inside as f64
+    }
 }
 
 /// Smallest root z > 0 of `c2 z² + c1 z + c0` (c0 > 0), if any.
@@ -304,6 +343,28 @@ mod tests {
     use super::*;
     use crate::geometry::polygon::circle;
     use crate::geometry::polygon::is_simple;
+
+    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<Point> {
+        vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    #[test]
+    fn a_void_under_material_is_closed_and_one_under_a_bay_or_a_hole_is_open() {
+        let void = rect(0.0, 0.0, 4.0, 4.0);
+        // Under material: nothing open.
+        assert_eq!(open_fraction(&void, &[&rect(-5.0, -5.0, 9.0, 9.0)]), 0.0);
+        // Nothing across (beyond the material's edge): all open.
+        assert_eq!(open_fraction(&void, &[]), 1.0);
+        // Half under the material's edge.
+        let half = open_fraction(&void, &[&rect(2.0, -5.0, 9.0, 9.0)]);
+        assert!((half - 0.5).abs() < 1e-12, "{half}");
+        // Under a hole of the material across (inside two contours: not material).
+        let outer = rect(-5.0, -5.0, 9.0, 9.0);
+        let hole = rect(-1.0, -1.0, 5.0, 5.0);
+        assert_eq!(open_fraction(&void, &[&outer, &hole]), 1.0);
+        // A degenerate void has no footprint.
+        assert_eq!(open_fraction(&[[0.0, 0.0], [1.0, 1.0]], &[]), 0.0);
+    }
 
     #[test]
     fn disc_caps_at_its_centre() {

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use super::s3_correspondence::{Joined, Problem, Side, Transition};
 use super::{Control, StageStats};
 use crate::geometry::branching::{intermediate_contours, Intermediate};
-use crate::geometry::capping::{cap, cap_height, material_width};
+use crate::geometry::capping::{cap, cap_height, material_width, open_fraction, LEAST_CAP_HEIGHT};
 use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::keyhole::{join_rings, open_slits, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
@@ -894,8 +894,17 @@ impl Assembler {
                     .ok_or_else(|| Error::Internal("cap without its section".into()))?;
                     // Every loop of one cap at one height: they share ridge loops and seals.
                     let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
-                    let height =
+                    let mut height =
                         cap_height(&self.cap_widths(section, *side, &ids, ahead), t.spacing);
+                    let across = match side {
+                        Side::Above => t.upper.as_ref(),
+                        Side::Below => t.lower.as_ref(),
+                    };
+                    if outer.is_none()
+                        && across.is_some_and(|a| holes.iter().any(|&h| opens(section, h, a)))
+                    {
+                        height = LEAST_CAP_HEIGHT * t.spacing;
+                    }
                     let dz = match side {
                         Side::Above => height,
                         Side::Below => -height,
@@ -1020,4 +1029,29 @@ pub fn run(
         }
     }
     Ok(stats)
+}
+
+/// Fraction of a capped void's footprint that must be void across its cap too for the void
+/// to count as opening there ([`opens`]).
+const OPEN_VOID: f64 = 0.5;
+
+/// Whether the void `k` of `section`, capped alone, opens onto void in the section `across`
+/// its cap rather than closing under material: a hole whose footprint lies mostly outside
+/// the next slice's material (a bay, or the outside) runs on sideways, and no roof is there.
+/// Such a void caps at the least height: at half a slice, the skull's hole 52 domed up
+/// through the walls its outer region's bay swept over it (195 crossing faces).
+fn opens(section: &Section, k: usize, across: &Section) -> bool {
+    let void = &section.contours[k].points;
+    let mapped: Vec<Vec<Point>> = across
+        .contours
+        .iter()
+        .map(|c| {
+            c.points
+                .iter()
+                .map(|&p| section.frame.to_plane(across.frame.to_patient(p)))
+                .collect()
+        })
+        .collect();
+    let loops: Vec<&[Point]> = mapped.iter().map(Vec::as_slice).collect();
+    open_fraction(void, &loops) >= OPEN_VOID
 }
