@@ -1041,17 +1041,9 @@ const OPEN_VOID: f64 = 0.5;
 /// Such a void caps at the least height: at half a slice, the skull's hole 52 domed up
 /// through the walls its outer region's bay swept over it (195 crossing faces).
 fn opens(section: &Section, k: usize, across: &Section) -> bool {
-    let void = &section.contours[k].points;
-    let mapped: Vec<Vec<Point>> = across
-        .contours
-        .iter()
-        .map(|c| {
-            c.points
-                .iter()
-                .map(|&p| section.frame.to_plane(across.frame.to_patient(p)))
-                .collect()
-        })
+    let mapped: Vec<(Vec<Point>, bool)> = (0..across.contours.len())
+        .map(|c| (in_frame(&section.frame, across, c), across.contours[c].hole))
         .collect();
-    let loops: Vec<&[Point]> = mapped.iter().map(Vec::as_slice).collect();
-    open_fraction(void, &loops) >= OPEN_VOID
+    let loops: Vec<(&[Point], bool)> = mapped.iter().map(|(c, h)| (c.as_slice(), *h)).collect();
+    open_fraction(&section.contours[k].points, &loops) >= OPEN_VOID
 }

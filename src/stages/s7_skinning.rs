@@ -141,12 +141,15 @@ impl JudgedMesh {
     }
 
     /// Per face of the surfaces, whether it crosses another face of them, or else (if none
-    /// does) whether it crosses a fence; and the counts.
-    fn crossing(&self) -> (Vec<bool>, Crossings) {
+    /// does) whether it crosses a fence; and the counts. The fences join the faces for the
+    /// search and leave again, so the mesh is not copied.
+    fn crossing(&mut self) -> (Vec<bool>, Crossings) {
         let n = self.faces.len();
-        let all: Vec<Triangle> = self.faces.iter().chain(&self.fences).copied().collect();
+        self.faces.extend_from_slice(&self.fences);
+        let pairs = crossing_pairs(&self.faces);
+        self.faces.truncate(n);
         let (mut own, mut fence) = (vec![false; n], vec![false; n]);
-        for (i, j) in crossing_pairs(&all) {
+        for (i, j) in pairs {
             match (i < n, j < n) {
                 (true, true) => (own[i], own[j]) = (true, true),
                 (true, false) => fence[i] = true,
@@ -208,9 +211,10 @@ fn cap_fence(lp: &[[f64; 3]], next: &[[f64; 3]]) -> Vec<Triangle> {
 
 /// Faces of the surface through `fitted`'s curves crossing another, or if none does, a
 /// fence ([`JudgedMesh::crossing`]: a fold comes first, as in [`Crossings::fewer_than`]; the
-/// abdomen's crossing faces rose 703 → 715 with joins cut and fanned for either) per band between consecutive curves (`curves − 1` of them),
-/// each counted in the band its centroid's height lies in (all curves lie in parallel
-/// planes; faces beyond an end curve count in the end band); and the [`Crossings`] in all.
+/// abdomen's crossing faces rose 703 → 715 with joins cut and fanned for either), per band
+/// between consecutive curves (`curves − 1` of them), each counted in the band its
+/// centroid's height lies in (all curves lie in parallel planes; faces beyond an end curve
+/// count in the end band); and the [`Crossings`] in all.
 /// `None` if the surface cannot be skinned or its curves have no plane.
 pub fn crossing_bands(fitted: &FittedRegion, tolerance: f64) -> Option<(Vec<usize>, Crossings)> {
     let curves = &fitted.region.curves;
@@ -361,7 +365,7 @@ mod tests {
                 [6.0, 3.0, z + rise],
                 [5.0, 6.0, z + rise],
             ];
-            let mesh = JudgedMesh {
+            let mut mesh = JudgedMesh {
                 faces: vec![out, across, inside],
                 fences: fence,
             };
@@ -399,7 +403,7 @@ mod tests {
             [[0.0, 0.0, -1.0], [2.0, 0.0, 1.0], [0.0, 2.0, 1.0]],
             [[-1.0, 0.5, 0.0], [3.0, 0.5, 0.0], [0.5, 3.0, 0.0]],
         ];
-        let mesh = JudgedMesh {
+        let mut mesh = JudgedMesh {
             faces: fold.to_vec(),
             fences: Vec::new(),
         };
