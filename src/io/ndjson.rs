@@ -91,10 +91,6 @@ pub enum Record {
     End(EndRecord),
 }
 
-fn round(x: f64) -> f64 {
-    (x * 1e4).round() / 1e4
-}
-
 impl SeriesRecord {
     pub fn new(series: &SeriesSummary, opts: &ContourOptions) -> Self {
         SeriesRecord {
@@ -120,17 +116,13 @@ impl SliceRecord {
             origin: f.origin,
             row: f.row,
             col: f.col,
-            height: Some(round(f.height())),
+            height: Some(f.height()),
             file: Some(section.source.to_string()),
             contours: section
                 .contours
                 .iter()
                 .map(|c| ContourRecord {
-                    points: c
-                        .points
-                        .iter()
-                        .map(|p| [round(p[0]), round(p[1])])
-                        .collect(),
+                    points: c.points.clone(),
                     hole: Some(c.hole),
                 })
                 .collect(),
@@ -359,6 +351,32 @@ mod tests {
         assert_eq!(got, (0..3).map(section).collect::<Vec<_>>());
         assert!(r.ended);
         assert_eq!(r.header.unwrap(), header);
+    }
+
+    #[test]
+    fn points_and_frames_survive_to_the_last_bit() {
+        // `contours | run -` must give the bytes `run DIR` gives; one ulp off changes
+        // discrete choices downstream (the GE head: 292 surfaces direct, 286 piped).
+        let mut s = section(1);
+        let awkward = |k: usize| (k as f64 + 1.0).sqrt() * 37.123456789 - 0.1;
+        s.frame.origin = [awkward(1), -awkward(2), awkward(3) * 1e-3];
+        s.frame.col = [
+            0.0,
+            awkward(4) / awkward(4).hypot(0.3),
+            0.3 / awkward(4).hypot(0.3),
+        ];
+        for (k, p) in s.contours[0].points.iter_mut().enumerate() {
+            *p = [p[0] + awkward(k) * 1e-7, p[1] + awkward(k + 9)];
+        }
+        let header = SeriesRecord::new(&SeriesSummary::default(), &ContourOptions::default());
+        let mut w = NdjsonWriter::new(Vec::new(), &header).unwrap();
+        w.write_section(&s).unwrap();
+        let bytes = w.finish().unwrap();
+        let got: Vec<Section> = NdjsonReader::new(&bytes[..])
+            .unwrap()
+            .map(|s| s.unwrap())
+            .collect();
+        assert_eq!(got, vec![s]);
     }
 
     #[test]
