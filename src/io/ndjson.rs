@@ -83,6 +83,11 @@ pub struct EndRecord {
     pub points: usize,
 }
 
+/// The largest coordinate a stream may give, in mm: a kilometre, far beyond any scanner's
+/// field, and far enough inside f64's range that the grids and distances built on the
+/// points stay finite (a point at 1e308 mm made stage 4's raster cell infinite).
+pub const MAX_COORDINATE_MM: f64 = 1e6;
+
 #[derive(Serialize, Deserialize, Debug, Clone, PartialEq)]
 #[serde(tag = "type", rename_all = "lowercase")]
 pub enum Record {
@@ -139,6 +144,12 @@ impl SliceRecord {
                 self.index
             )));
         }
+        if let Some(v) = self.origin.iter().find(|v| v.abs() > MAX_COORDINATE_MM) {
+            return Err(bad(format!(
+                "slice {}: origin coordinate {v:e} mm is beyond {MAX_COORDINATE_MM:e} mm",
+                self.index
+            )));
+        }
         let frame = SliceFrame {
             origin: self.origin,
             row: self.row,
@@ -156,6 +167,18 @@ impl SliceRecord {
             if c.points.iter().flatten().any(|v| !v.is_finite()) {
                 return Err(bad(format!(
                     "slice {}, contour {k}: non-finite point",
+                    self.index
+                )));
+            }
+            let far = |p: &[f64; 2]| p.iter().copied().find(|v| v.abs() > MAX_COORDINATE_MM);
+            if let Some((i, v)) = c
+                .points
+                .iter()
+                .enumerate()
+                .find_map(|(i, p)| Some((i, far(p)?)))
+            {
+                return Err(bad(format!(
+                    "slice {}, contour {k}: point {i} has a coordinate of {v:e} mm, beyond {MAX_COORDINATE_MM:e} mm",
                     self.index
                 )));
             }
@@ -388,6 +411,15 @@ mod tests {
             s.contours[0].hole,
             "a clockwise contour without a flag is a hole"
         );
+
+        let far = r#"{"type":"slice","index":2,"origin":[0,0,0],"row":[1,0,0],"col":[0,1,0],"contours":[{"points":[[0,0],[1e308,0],[1,1]]}]}"#;
+        let s: Vec<_> = NdjsonReader::new(far.as_bytes()).unwrap().collect();
+        let msg = s[0].as_ref().unwrap_err().to_string();
+        assert!(msg.contains("line 1") && msg.contains("point 1"), "{msg}");
+        let far = r#"{"type":"slice","index":2,"origin":[0,-2e6,0],"row":[1,0,0],"col":[0,1,0],"contours":[]}"#;
+        let s: Vec<_> = NdjsonReader::new(far.as_bytes()).unwrap().collect();
+        let msg = s[0].as_ref().unwrap_err().to_string();
+        assert!(msg.contains("origin coordinate -2e6 mm"), "{msg}");
 
         let nan = r#"{"type":"slice","index":3,"origin":[0,0,0],"row":[1,0,0],"col":[0,1,0],"contours":[{"points":[[0,0],[1,0]]}]}"#;
         let s: Vec<_> = NdjsonReader::new(nan.as_bytes()).unwrap().collect();
