@@ -55,8 +55,16 @@ fn main() {
     let mut out = Vec::new();
     std::thread::scope(|s| {
         let front = s.spawn(|| s3_correspondence::run(reader, 1.0, transitions_tx, &ctl));
-        let branching =
-            s.spawn(|| s4_branching::run(transitions_rx, config.cell_mm, 128, regions_tx, &ctl));
+        let branching = s.spawn(|| {
+            s4_branching::run(
+                transitions_rx,
+                config.cell_mm,
+                config.tolerance_mm,
+                128,
+                regions_tx,
+                &ctl,
+            )
+        });
         // Every region is fitted: one cut into segments moves the ids after it on, as in
         // stage 6.
         let mut next_id = 0;

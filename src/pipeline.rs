@@ -254,6 +254,7 @@ pub fn run_surfaces(
                 s4_branching::run(
                     transitions_rx,
                     config.cell_mm,
+                    config.tolerance_mm,
                     config.max_curves,
                     regions_tx,
                     ctl,

@@ -62,7 +62,7 @@ fn one_to_two_over_100_by_60_mm_at_0_05_mm() {
     let mut hole = ellipse(0.0, 0.0, 30.0, 12.0, 1000);
     hole.reverse();
     let (t, cpu) = (Instant::now(), cpu_seconds());
-    let c = cap(&outer, &[&hole], cell).unwrap();
+    let c = cap(&outer, &[&hole], cell, 0.0).unwrap();
     eprintln!(
         "cap of a 100 × 60 mm annulus at {cell} mm: {:.0} ms wall, {:.0} ms CPU, warnings {:?}",
         t.elapsed().as_secs_f64() * 1e3,

@@ -317,7 +317,7 @@ fn unconnected_contour_degenerates_to_a_point_with_a_warning() {
 fn caps_of_disc_annulus_and_two_holed_plate() {
     let cell = 0.1;
     let disc = ellipse(4.0, -3.0, 9.0, 9.0, 500);
-    let c = cap(&disc, &[], cell).unwrap();
+    let c = cap(&disc, &[], cell, 0.0).unwrap();
     let Intermediate::Point(p) = c.outer else {
         panic!()
     };
@@ -330,7 +330,7 @@ fn caps_of_disc_annulus_and_two_holed_plate() {
     let outer = ellipse(0.0, 0.0, 18.0, 18.0, 700);
     let mut hole = ellipse(0.0, 0.0, 6.0, 6.0, 300);
     hole.reverse();
-    let c = cap(&outer, &[&hole], cell).unwrap();
+    let c = cap(&outer, &[&hole], cell, 0.0).unwrap();
     let mut worst: f64 = 0.0;
     for lp in loops(&[c.outer.clone(), c.holes[0].clone()]) {
         for p in lp {
@@ -350,7 +350,7 @@ fn caps_of_disc_annulus_and_two_holed_plate() {
     let mut h2 = ellipse(10.0, 0.0, 4.0, 4.0, 200);
     h1.reverse();
     h2.reverse();
-    let c = cap(&plate, &[&h1, &h2], cell).unwrap();
+    let c = cap(&plate, &[&h1, &h2], cell, 0.0).unwrap();
     let all: Vec<Intermediate> = std::iter::once(c.outer.clone())
         .chain(c.holes.iter().cloned())
         .collect();
@@ -445,15 +445,15 @@ fn degenerate_inputs_do_not_panic() {
         if let Ok(r) = intermediate_contours(&[&disc], &[bad, &disc], cell) {
             check_loops_valid(&r);
         }
-        let _ = cap(bad, &[], cell);
-        let _ = cap(&disc, &[bad], cell);
+        let _ = cap(bad, &[], cell, 0.0);
+        let _ = cap(&disc, &[bad], cell, 0.0);
     }
     // Infinite coordinates and bad cells are refused (huge rasters are coarsened: see the
     // unit test in branching.rs, a full-size raster is too slow for a debug test run).
     let inf: Vec<Point> = vec![[0.0, 0.0], [f64::INFINITY, 0.0], [0.0, 1.0]];
     assert!(intermediate_contours(&[&inf], &[&disc], cell).is_err());
-    assert!(cap(&inf, &[], cell).is_err());
-    assert!(cap(&disc, &[], f64::NAN).is_err());
+    assert!(cap(&inf, &[], cell, 0.0).is_err());
+    assert!(cap(&disc, &[], f64::NAN, 0.0).is_err());
 }
 
 proptest! {
@@ -474,7 +474,7 @@ proptest! {
         let hx = rng.random_range(-1.0..1.0);
         let mut hole = star(&mut rng, [hx, 0.0], 3.0, 60);
         hole.reverse();
-        let c = cap(&outer, &[&hole], cell).unwrap();
+        let c = cap(&outer, &[&hole], cell, 0.0).unwrap();
         let (Intermediate::Loop(o), Intermediate::Loop(h)) = (&c.outer, &c.holes[0]) else {
             return Err(TestCaseError::fail(format!("expected loops: {:?}", c.warnings)));
         };

@@ -74,8 +74,14 @@ fn exact_band(grid: &Grid, seed: &SeedField, material: &[bool]) -> Vec<bool> {
     mask
 }
 
-/// Caps of the region bounded by `outer` minus `holes`.
-pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, GeometryError> {
+/// Caps of the region bounded by `outer` minus `holes`. `ridge_tip_mm`: how far a ridge
+/// path's ends stay back from the contour's tips ([`ridge_loop`]); the fitting tolerance.
+pub fn cap(
+    outer: &[Point],
+    holes: &[&[Point]],
+    cell_mm: f64,
+    ridge_tip_mm: f64,
+) -> Result<Caps, GeometryError> {
     validate_polygons(&[outer], "outer contour")?;
     validate_polygons(holes, "hole")?;
     let mut warnings = Vec::new();
@@ -110,7 +116,7 @@ pub fn cap(outer: &[Point], holes: &[&[Point]], cell_mm: f64) -> Result<Caps, Ge
         let outer = if is_star_around(outer, p, slack) {
             Intermediate::Point(p)
         } else {
-            match ridge_loop(outer, 0.5 * cell_mm, slack) {
+            match ridge_loop(outer, 0.5 * cell_mm, slack, ridge_tip_mm) {
                 Some(lp) => Intermediate::Loop(lp),
                 None => {
                     warnings.push(format!(
@@ -364,7 +370,7 @@ mod tests {
     #[test]
     fn disc_caps_at_its_centre() {
         let d = circle(3.3, -1.7, 8.0, 500, true);
-        let c = cap(&d, &[], 0.2).unwrap();
+        let c = cap(&d, &[], 0.2, 0.0).unwrap();
         let Intermediate::Point(p) = c.outer else {
             panic!("expected a point")
         };
@@ -377,7 +383,7 @@ mod tests {
         let outer = circle(0.0, 0.0, 20.0, 800, true);
         let hole = circle(0.0, 0.0, 10.0, 500, false);
         let cell = 0.2;
-        let c = cap(&outer, &[&hole], cell).unwrap();
+        let c = cap(&outer, &[&hole], cell, 0.0).unwrap();
         assert!(c.warnings.is_empty(), "{:?}", c.warnings);
         let (Intermediate::Loop(o), Intermediate::Loop(h)) = (&c.outer, &c.holes[0]) else {
             panic!("expected loops: {c:?}")
@@ -418,7 +424,7 @@ mod tests {
             circle(c, 0.0, 4.0, 300, false),
         ];
         let refs: Vec<&[Point]> = holes.iter().map(|h| h.as_slice()).collect();
-        let caps = cap(&outer, &refs, 0.2).unwrap();
+        let caps = cap(&outer, &refs, 0.2, 0.0).unwrap();
         assert!(
             caps.warnings.iter().all(|w| !w.contains("largest")),
             "{:?}",

@@ -300,7 +300,15 @@ fn slit_step(cell_mm: f64) -> f64 {
     2.0 * cell_mm
 }
 
-pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result<Solved> {
+/// One problem of transition `t`, on distance maps of `cell_mm`; caps' ridge paths stay
+/// `ridge_tip_mm` (the fitting tolerance) back from their contours' tips.
+pub fn solve(
+    t: &Transition,
+    p: &Problem,
+    cell_mm: f64,
+    ridge_tip_mm: f64,
+    ctl: &Control,
+) -> Result<Solved> {
     let geometry = |e, what: String| Error::Geometry {
         stage: STAGE,
         context: what,
@@ -458,8 +466,13 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
             match outer {
                 Some(o) => {
                     let hole_refs: Vec<&[Point]> = hole_pts.iter().map(|v| v.as_slice()).collect();
-                    let caps = cap(&section.contours[*o].points, &hole_refs, cell_mm)
-                        .map_err(|e| geometry(e, what()))?;
+                    let caps = cap(
+                        &section.contours[*o].points,
+                        &hole_refs,
+                        cell_mm,
+                        ridge_tip_mm,
+                    )
+                    .map_err(|e| geometry(e, what()))?;
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: {w}", section.index));
                     }
@@ -476,7 +489,8 @@ pub fn solve(t: &Transition, p: &Problem, cell_mm: f64, ctl: &Control) -> Result
                 None => {
                     // A lone void closing: cap it as the solid region it bounds.
                     let void = ccw_in(frame, section, holes);
-                    let caps = cap(&void[0], &[], cell_mm).map_err(|e| geometry(e, what()))?;
+                    let caps = cap(&void[0], &[], cell_mm, ridge_tip_mm)
+                        .map_err(|e| geometry(e, what()))?;
                     for w in &caps.warnings {
                         ctl.warn(format!("slice {}: hole closing alone: {w}", section.index));
                     }
@@ -990,9 +1004,12 @@ fn both(t: &Transition) -> Result<(&Arc<Section>, &Arc<Section>)> {
     }
 }
 
+/// Stage 4: each transition's problems solved (in parallel) into regions, assembled and sent
+/// on in order. `ridge_tip_mm`: see [`solve`].
 pub fn run(
     input: Receiver<Transition>,
     cell_mm: f64,
+    ridge_tip_mm: f64,
     max_curves: usize,
     out: Sender<Region>,
     ctl: &Control,
@@ -1016,7 +1033,7 @@ pub fn run(
             let solved: Result<Vec<Solved>> = t
                 .problems
                 .par_iter()
-                .map(|p| solve(&t, p, cell_mm, ctl))
+                .map(|p| solve(&t, p, cell_mm, ridge_tip_mm, ctl))
                 .collect();
             let closed = assembler.apply(&t, solved?, held.make_contiguous())?;
             stats.busy += start.elapsed();
