@@ -152,8 +152,8 @@ pub fn ridge_loop(contour: &[Point], step: f64, tol: f64, tip_mm: f64) -> Option
         }
         k
     };
-    first = back(first, 1, first.max(half / TIP_TRIM_MAX));
-    last = back(last, -1, last.min(half - half / TIP_TRIM_MAX));
+    first = back(first, 1, half / TIP_TRIM_MAX);
+    last = back(last, -1, half - half / TIP_TRIM_MAX);
     let kept = settled_path(&path[first..=last], tol, crosses_contour)?;
     let k = kept.len();
     if k < 3 {

@@ -164,23 +164,23 @@ impl SliceRecord {
         }
         let mut contours = Vec::with_capacity(self.contours.len());
         for (k, c) in self.contours.into_iter().enumerate() {
-            if c.points.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(bad(format!(
-                    "slice {}, contour {k}: non-finite point",
-                    self.index
-                )));
-            }
-            let far = |p: &[f64; 2]| p.iter().copied().find(|v| v.abs() > MAX_COORDINATE_MM);
-            if let Some((i, v)) = c
-                .points
-                .iter()
-                .enumerate()
-                .find_map(|(i, p)| Some((i, far(p)?)))
-            {
-                return Err(bad(format!(
-                    "slice {}, contour {k}: point {i} has a coordinate of {v:e} mm, beyond {MAX_COORDINATE_MM:e} mm",
-                    self.index
-                )));
+            // One pass over the points for both checks.
+            let bad_at = c.points.iter().enumerate().find_map(|(i, p)| {
+                let v = p
+                    .iter()
+                    .copied()
+                    .find(|v| !v.is_finite() || v.abs() > MAX_COORDINATE_MM)?;
+                Some((i, v))
+            });
+            if let Some((i, v)) = bad_at {
+                return Err(bad(if v.is_finite() {
+                    format!(
+                        "slice {}, contour {k}: point {i} has a coordinate of {v:e} mm, beyond {MAX_COORDINATE_MM:e} mm",
+                        self.index
+                    )
+                } else {
+                    format!("slice {}, contour {k}: non-finite point", self.index)
+                }));
             }
             if c.points.len() < 3 {
                 return Err(bad(format!(

@@ -907,18 +907,18 @@ impl Assembler {
                     }
                     .ok_or_else(|| Error::Internal("cap without its section".into()))?;
                     // Every loop of one cap at one height: they share ridge loops and seals.
-                    let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
-                    let mut height =
-                        cap_height(&self.cap_widths(section, *side, &ids, ahead), t.spacing);
                     let across = match side {
                         Side::Above => t.upper.as_ref(),
                         Side::Below => t.lower.as_ref(),
                     };
-                    if outer.is_none()
-                        && across.is_some_and(|a| holes.iter().any(|&h| opens(section, h, a)))
-                    {
-                        height = LEAST_CAP_HEIGHT * t.spacing;
-                    }
+                    let opening =
+                        outer.is_none() && across.is_some_and(|a| opens(section, holes, a));
+                    let height = if opening {
+                        LEAST_CAP_HEIGHT * t.spacing
+                    } else {
+                        let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
+                        cap_height(&self.cap_widths(section, *side, &ids, ahead), t.spacing)
+                    };
                     let dz = match side {
                         Side::Above => height,
                         Side::Below => -height,
@@ -1052,15 +1052,17 @@ pub fn run(
 /// to count as opening there ([`opens`]).
 const OPEN_VOID: f64 = 0.5;
 
-/// Whether the void `k` of `section`, capped alone, opens onto void in the section `across`
-/// its cap rather than closing under material: a hole whose footprint lies mostly outside
-/// the next slice's material (a bay, or the outside) runs on sideways, and no roof is there.
-/// Such a void caps at the least height: at half a slice, the skull's hole 52 domed up
-/// through the walls its outer region's bay swept over it (195 crossing faces).
-fn opens(section: &Section, k: usize, across: &Section) -> bool {
+/// Whether any of the voids `holes` of `section`, capped alone, opens onto void in the
+/// section `across` its cap rather than closing under material: a hole whose footprint lies
+/// mostly outside the next slice's material (a bay, or the outside) runs on sideways, and no
+/// roof is there. Such a void caps at the least height: at half a slice, the skull's hole 52
+/// domed up through the walls its outer region's bay swept over it (195 crossing faces).
+fn opens(section: &Section, holes: &[usize], across: &Section) -> bool {
     let mapped: Vec<(Vec<Point>, bool)> = (0..across.contours.len())
         .map(|c| (in_frame(&section.frame, across, c), across.contours[c].hole))
         .collect();
     let loops: Vec<(&[Point], bool)> = mapped.iter().map(|(c, h)| (c.as_slice(), *h)).collect();
-    open_fraction(&section.contours[k].points, &loops) >= OPEN_VOID
+    holes
+        .iter()
+        .any(|&k| open_fraction(&section.contours[k].points, &loops) >= OPEN_VOID)
 }
