@@ -629,7 +629,7 @@ fn build_at(
         } else {
             ("upper", upper[i])
         };
-        let joined = join_pieces(own, contour, &all_loops);
+        let joined = join_pieces(own, contour, &all_loops, cell);
         if *count > 1 {
             let lost = joined.dropped_area + tiny;
             dropped += lost;

@@ -185,7 +185,7 @@ pub fn cap(
             // The outer contour's zone rings several groups of holes: its loops are joined
             // by slits through the zone (as a split zone's pieces are, `super::bridges`),
             // so the outer wall closes onto the ridge round every group.
-            let joined = join_pieces(own, outer, &all_loops);
+            let joined = join_pieces(own, outer, &all_loops, grid.cell_mm);
             let message = format!(
                 "outer contour: its zone has {} ridge loops; joined {} by bridges, dropped \
                  {:.4} mm²",
