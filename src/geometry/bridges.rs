@@ -63,18 +63,9 @@ type Candidate = (f64, End, End);
 /// the points `via` (empty for a straight bridge).
 #[derive(Clone, Debug, PartialEq)]
 struct Bridge {
-    from: (usize, usize),
-    to: (usize, usize),
+    from: End,
+    to: End,
     via: Vec<Point>,
-}
-
-impl Bridge {
-    fn points(&self, pieces: &[Vec<Point>]) -> Vec<Point> {
-        let mut pts = vec![pieces[self.from.0][self.from.1]];
-        pts.extend_from_slice(&self.via);
-        pts.push(pieces[self.to.0][self.to.1]);
-        pts
-    }
 }
 
 fn root(group: &mut [usize], mut i: usize) -> usize {
@@ -122,16 +113,18 @@ pub fn join_pieces(
     candidates.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
     let mut group: Vec<usize> = (0..k).collect();
     let mut taken: Vec<Bridge> = Vec::new();
+    // Every segment of the bridges taken, kept as they are taken.
+    let mut slits: Vec<[Point; 2]> = Vec::new();
     for (_, from, to) in candidates {
         let (ga, gb) = (root(&mut group, from.0), root(&mut group, to.0));
         if ga == gb || used(&taken, from) || used(&taken, to) {
             continue;
         }
         let (p, q) = (pieces[from.0][from.1], pieces[to.0][to.1]);
-        let slits = slit_segments(&taken, pieces);
         if !clear(p, q, contour, loops, &slits) {
             continue;
         }
+        slits.push([p, q]);
         group[ga.max(gb)] = ga.min(gb);
         taken.push(Bridge {
             from,
@@ -140,7 +133,9 @@ pub fn join_pieces(
         });
     }
     if (0..k).any(|i| root(&mut group, i) != 0) {
-        path_bridges(pieces, contour, loops, cell_mm, &mut group, &mut taken);
+        path_bridges(
+            pieces, contour, loops, cell_mm, &mut group, &mut taken, slits,
+        );
     }
     // Walk the tree of bridges from the first piece.
     let mut children: Vec<Vec<Child>> = vec![Vec::new(); k];
@@ -186,21 +181,8 @@ pub fn join_pieces(
 }
 
 /// Whether a bridge taken starts or ends at this vertex.
-fn used(taken: &[Bridge], end: (usize, usize)) -> bool {
+fn used(taken: &[Bridge], end: End) -> bool {
     taken.iter().any(|t| t.from == end || t.to == end)
-}
-
-/// Every segment of the bridges taken.
-fn slit_segments(taken: &[Bridge], pieces: &[Vec<Point>]) -> Vec<[Point; 2]> {
-    taken
-        .iter()
-        .flat_map(|t| {
-            let pts = t.points(pieces);
-            (1..pts.len())
-                .map(|s| [pts[s - 1], pts[s]])
-                .collect::<Vec<_>>()
-        })
-        .collect()
 }
 
 /// A piece reached from piece `i`: its bridge leaves `i` at vertex `at` and runs through
@@ -338,6 +320,7 @@ fn path_bridges(
     cell_mm: f64,
     group: &mut [usize],
     taken: &mut Vec<Bridge>,
+    mut slits: Vec<[Point; 2]>,
 ) {
     let Some(grid) = FreeCells::new(contour, loops, cell_mm) else {
         return;
@@ -427,9 +410,12 @@ fn path_bridges(
         let mut path = vec![pieces[start.0][start.1]];
         path.extend(cells.iter().map(|&c| grid.centre(c)));
         path.push(pieces[end.0][end.1]);
-        let slits = slit_segments(taken, pieces);
         match shorten(&path, contour, loops, &slits) {
             Some(via) => {
+                let mut pts = vec![path[0]];
+                pts.extend_from_slice(&via);
+                pts.push(path[path.len() - 1]);
+                slits.extend(pts.windows(2).map(|w| [w[0], w[1]]));
                 let (ga, gb) = (root(group, start.0), root(group, end.0));
                 group[ga.max(gb)] = ga.min(gb);
                 taken.push(Bridge {
