@@ -32,7 +32,8 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use super::polygon::{boxes_disjoint, contains, segments_intersect, signed_area, Point};
+use super::distance_map::{inside_mask, paint_inside, Grid};
+use super::polygon::{bbox, boxes_disjoint, contains, segments_intersect, signed_area, Point};
 
 /// Closest vertex pairs tried per pair of pieces.
 const CANDIDATES_PER_PAIR: usize = 8;
@@ -195,114 +196,62 @@ struct Child {
     via: Vec<Point>,
 }
 
-/// The raster polyline bridges are searched on: cells inside the contour and outside every
-/// loop are free.
+/// The raster polyline bridges are searched on: samples inside the contour and outside every
+/// loop are free. A sample stands for the cell of side `grid.cell_mm` centred on it.
 struct FreeCells {
-    x0: f64,
-    y0: f64,
-    cell: f64,
-    width: usize,
-    height: usize,
+    grid: Grid,
     free: Vec<bool>,
 }
 
 impl FreeCells {
     fn new(contour: &[Point], loops: &[&[Point]], cell_mm: f64) -> Option<Self> {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in contour {
-            for d in 0..2 {
-                lo[d] = lo[d].min(p[d]);
-                hi[d] = hi[d].max(p[d]);
-            }
-        }
-        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-        if !(extent.is_finite() && extent > 0.0 && cell_mm > 0.0) {
+        let b = bbox(contour);
+        let (dx, dy) = (b[2] - b[0], b[3] - b[1]);
+        if !(dx.max(dy).is_finite() && dx.max(dy) > 0.0 && cell_mm > 0.0) {
             return None;
         }
-        let area = (hi[0] - lo[0] + 2.0 * cell_mm) * (hi[1] - lo[1] + 2.0 * cell_mm);
+        let area = (dx + 2.0 * cell_mm) * (dy + 2.0 * cell_mm);
         let cell = cell_mm.max((area / MAX_PATH_CELLS as f64).sqrt());
-        let (x0, y0) = (lo[0] - cell, lo[1] - cell);
-        let width = ((hi[0] - x0) / cell).ceil() as usize + 2;
-        let height = ((hi[1] - y0) / cell).ceil() as usize + 2;
-        let mut g = FreeCells {
-            x0,
-            y0,
+        // Cells tile the box with one to spare all round: samples at their centres, so the
+        // box shifted by half a cell.
+        let h = 0.5 * cell;
+        let grid = Grid::covering(
+            [b[0] + h, b[1] + h, b[2] + h, b[3] + h],
             cell,
-            width,
-            height,
-            free: vec![false; width * height],
-        };
-        g.fill(contour, true);
+            1,
+            usize::MAX,
+        )
+        .ok()?;
+        let mut free = inside_mask(&grid, &[contour]);
         for l in loops {
-            g.fill(l, false);
+            paint_inside(&grid, &[l], &mut free, false);
         }
-        Some(g)
+        Some(FreeCells { grid, free })
     }
 
-    /// Sets the cells whose centres lie inside `poly` (even-odd, scan line) to `value`.
-    fn fill(&mut self, poly: &[Point], value: bool) {
-        let n = poly.len();
-        let mut rows: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
-        for e in 0..n {
-            let (a, b) = (poly[e], poly[(e + 1) % n]);
-            if a[1] == b[1] {
-                continue;
-            }
-            let (ylo, yhi) = (a[1].min(b[1]), a[1].max(b[1]));
-            // Rows whose centre y lies in [ylo, yhi).
-            let first = ((ylo - self.y0) / self.cell - 0.5).ceil().max(0.0) as usize;
-            let mut r = first;
-            while r < self.height {
-                let y = self.y0 + (r as f64 + 0.5) * self.cell;
-                if y >= yhi {
-                    break;
-                }
-                if y >= ylo {
-                    let x = a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                    rows.entry(r).or_default().push(x);
-                }
-                r += 1;
-            }
-        }
-        for (r, mut xs) in rows {
-            xs.sort_by(f64::total_cmp);
-            for span in xs.chunks_exact(2) {
-                let c0 = ((span[0] - self.x0) / self.cell - 0.5).ceil().max(0.0) as usize;
-                let c1 = ((span[1] - self.x0) / self.cell - 0.5).floor();
-                if c1 < 0.0 {
-                    continue;
-                }
-                let c1 = (c1 as usize).min(self.width - 1);
-                for c in c0..=c1 {
-                    self.free[r * self.width + c] = value;
-                }
-            }
-        }
+    fn width(&self) -> usize {
+        self.grid.width
     }
 
-    fn cell_of(&self, p: Point) -> Option<(usize, usize)> {
-        let c = ((p[0] - self.x0) / self.cell).floor();
-        let r = ((p[1] - self.y0) / self.cell).floor();
-        (c >= 0.0 && r >= 0.0 && (c as usize) < self.width && (r as usize) < self.height)
-            .then_some((r as usize, c as usize))
+    fn height(&self) -> usize {
+        self.grid.height
     }
 
     fn centre(&self, k: usize) -> Point {
-        [
-            self.x0 + ((k % self.width) as f64 + 0.5) * self.cell,
-            self.y0 + ((k / self.width) as f64 + 0.5) * self.cell,
-        ]
+        self.grid.point(k / self.width(), k % self.width())
     }
 
-    /// The free cells within one cell of `p`'s (row-major order).
+    /// The free cells within one cell of the one `p` lies in (row-major order).
     fn free_near(&self, p: Point) -> Vec<usize> {
-        let Some((r, c)) = self.cell_of(p) else {
+        let [c, r] = self.grid.to_pixel(p).map(|v| (v + 0.5).floor());
+        if !(c >= 0.0 && r >= 0.0 && c < self.width() as f64 && r < self.height() as f64) {
             return Vec::new();
-        };
+        }
+        let (r, c) = (r as usize, c as usize);
         let mut out = Vec::new();
-        for rr in r.saturating_sub(1)..=(r + 1).min(self.height - 1) {
-            for cc in c.saturating_sub(1)..=(c + 1).min(self.width - 1) {
-                let k = rr * self.width + cc;
+        for rr in r.saturating_sub(1)..=(r + 1).min(self.height() - 1) {
+            for cc in c.saturating_sub(1)..=(c + 1).min(self.width() - 1) {
+                let k = rr * self.width() + cc;
                 if self.free[k] {
                     out.push(k);
                 }
@@ -365,7 +314,7 @@ fn path_bridges(
                 found = Some((cell, end));
                 break;
             }
-            let (r, c) = ((cell / grid.width) as i64, (cell % grid.width) as i64);
+            let (r, c) = ((cell / grid.width()) as i64, (cell % grid.width()) as i64);
             for (dr, dc) in [
                 (-1, 0),
                 (0, -1),
@@ -377,15 +326,15 @@ fn path_bridges(
                 (1, 1),
             ] {
                 let (rr, cc) = (r + dr, c + dc);
-                if rr < 0 || cc < 0 || rr >= grid.height as i64 || cc >= grid.width as i64 {
+                if rr < 0 || cc < 0 || rr >= grid.height() as i64 || cc >= grid.width() as i64 {
                     continue;
                 }
-                let n = rr as usize * grid.width + cc as usize;
+                let n = rr as usize * grid.width() + cc as usize;
                 // A diagonal step only between two free cells: never across a corner.
                 let corner_free = dr == 0
                     || dc == 0
-                    || (grid.free[rr as usize * grid.width + c as usize]
-                        && grid.free[r as usize * grid.width + cc as usize]);
+                    || (grid.free[rr as usize * grid.width() + c as usize]
+                        && grid.free[r as usize * grid.width() + cc as usize]);
                 if grid.free[n] && origin[n] == u32::MAX && corner_free {
                     origin[n] = origin[cell];
                     prev[n] = cell as u32;

@@ -879,6 +879,15 @@ pub(crate) fn nearest_contours_within(
 /// [`super::polygon::contains`] (so a sample is inside here exactly when `contains` says so
 /// for a single polygon). Scanline fill: linear in samples plus crossings.
 pub fn inside_mask(grid: &Grid, polys: &[&[Point]]) -> Vec<bool> {
+    let mut mask = vec![false; grid.len()];
+    paint_inside(grid, polys, &mut mask, true);
+    mask
+}
+
+/// Sets the samples of `mask` that [`inside_mask`] would mark inside `polys` to `value`,
+/// leaving the others as they are: one polygon painted after another (a region's outline,
+/// then each obstacle cut from it) without a mask per polygon.
+pub fn paint_inside(grid: &Grid, polys: &[&[Point]], mask: &mut [bool], value: bool) {
     let (w, h) = (grid.width, grid.height);
     // (row, x) of every crossing of a polygon edge with a sample row.
     let mut crossings: Vec<(usize, f64)> = Vec::new();
@@ -903,7 +912,6 @@ pub fn inside_mask(grid: &Grid, polys: &[&[Point]]) -> Vec<bool> {
         }
     }
     crossings.sort_by(|u, v| u.0.cmp(&v.0).then(u.1.total_cmp(&v.1)));
-    let mut mask = vec![false; w * h];
     let mut k = 0;
     while k < crossings.len() {
         let r = crossings[k].0;
@@ -919,7 +927,7 @@ pub fn inside_mask(grid: &Grid, polys: &[&[Point]]) -> Vec<bool> {
                 for c in c0 as usize..c1 as usize {
                     let x = grid.point(r, c)[0];
                     if x >= x0 && x < x1 {
-                        mask[r * w + c] = true;
+                        mask[r * w + c] = value;
                     }
                 }
                 // `ceil` of the pixel coordinate may miss the sample exactly at x0 after
@@ -928,7 +936,7 @@ pub fn inside_mask(grid: &Grid, polys: &[&[Point]]) -> Vec<bool> {
                     let c = c0 as usize - 1;
                     let x = grid.point(r, c)[0];
                     if x >= x0 && x < x1 {
-                        mask[r * w + c] = true;
+                        mask[r * w + c] = value;
                     }
                 }
             }
@@ -936,7 +944,6 @@ pub fn inside_mask(grid: &Grid, polys: &[&[Point]]) -> Vec<bool> {
         }
         k = end;
     }
-    mask
 }
 
 /// Signed distance (mm) to the boundary of the polygon set, negative inside (even–odd).
