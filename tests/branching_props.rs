@@ -711,6 +711,48 @@ fn a_split_on_both_sides_keeps_the_mid_plane_with_a_warning() {
 }
 
 #[test]
+fn a_split_mended_near_the_mid_plane_moves_the_plane() {
+    // A band 8 mm thick under two discs 12 mm apart: the band's zone meets M_½ under each
+    // disc (the gap between them is 6 mm from either), but at t = 0.35 it spans the gap. A
+    // straight slit would join the pieces at ½ too; a plane that near the middle is kept
+    // anyway (only planes nearer a section than NEAR_SECTION_T give way to bridges).
+    let cell = 0.15;
+    let band = ellipse(0.0, 0.0, 30.0, 4.0, 400);
+    let left = ellipse(-11.0, 0.0, 5.0, 5.0, 200);
+    let right = ellipse(11.0, 0.0, 5.0, 5.0, 200);
+    let half = intermediate_contours_at(&[&band], &[&left, &right], cell, 0.5).unwrap();
+    assert!(
+        half.notes.iter().any(|w| w.contains("in 2 pieces")),
+        "{:?}",
+        half.notes
+    );
+    for (a1, a2, t, side) in [
+        (vec![&band[..]], vec![&left[..], &right[..]], 0.35, "lower"),
+        (vec![&left[..], &right[..]], vec![&band[..]], 0.65, "upper"),
+    ] {
+        let r = intermediate_contours(&a1, &a2, cell).unwrap();
+        assert!((r.t - t).abs() < 1e-12, "{side}: t = {}", r.t);
+        // Mended: nothing split, joined or dropped at the moved plane.
+        assert!(r.warnings.is_empty(), "{side}: {:?}", r.warnings);
+        assert!(
+            !r.notes.iter().any(|w| w.contains("pieces")),
+            "{side}: {:?}",
+            r.notes
+        );
+        check_clean_at_t(side, &r, &a1, &a2, cell);
+        let lone = if side == "lower" { &r.lower } else { &r.upper };
+        let Intermediate::Loop(lo) = &lone[0] else {
+            panic!("{side}")
+        };
+        assert!(
+            contains(lo, [-11.0, 0.0]) && contains(lo, [0.0, 0.0]) && contains(lo, [11.0, 0.0]),
+            "{side}: one loop under both discs and across the gap"
+        );
+        assert_eq!(intermediate_contours(&a1, &a2, cell).unwrap(), r, "{side}");
+    }
+}
+
+#[test]
 fn properties_hold_at_any_plane_position() {
     let cell = 0.1;
     let lower = ellipse(0.0, 0.0, 30.0, 12.0, 720);
