@@ -30,7 +30,7 @@
 //! same towards 1 (`1 − t`); stop at the first `t` where no zone of either side is split. If
 //! both sides split at `t = ½`, or no `t` tried mends it, the `t` with the least discarded
 //! area is kept (a `t` at which a zone misses `M_t` altogether is never preferred) and a
-//! warning says so. But a plane moved nearer a section than [`NEAR_SECTION_T`] (0.15, 0.08)
+//! warning says so; a note instead where the bridges then join every piece. But a plane moved nearer a section than [`NEAR_SECTION_T`] (0.15, 0.08)
 //! leaves a band a sixth of a slice high or less between the intermediate contour and the
 //! contour beside it, which folds more often than a wall rising from a slit: where bridges
 //! (see [`super::bridges`]) join every piece of the split zones at `t = ½`, dropping
@@ -66,7 +66,8 @@
 //! (1-to-2, 2-to-2, 1-to-3, 3-to-1), and over random star problems 190 of 191 are exact, the
 //! other within 0.06 cell (a corner whose tracing gave up: a saddle or more than 6 cells).
 //!
-//! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings`:
+//! Degenerate cases (paper §2.2 "degeneracy"), each reported in `warnings` (a split zone in
+//! `notes` where bridges join every piece, so nothing is lost):
 //! - `M_t ∩ zone_i` in several pieces at the `t` kept (see above): beyond the paper, the
 //!   pieces are joined into one loop by zero-width bridges through contour `i`'s footprint
 //!   outside `M_t` ([`super::bridges`]), so each piece stays covered from both sections.
@@ -484,10 +485,10 @@ fn intermediate_contours_with(
         let best = moved.as_ref().unwrap_or(&half);
         if best.split != [false, false] {
             move_warning = Some(format!(
-                "a {} zone meets the intermediate plane in several pieces at every t tried \
-                 ({tried:?}); kept t = {} (discarded {:.4} mm², {:.4} mm² at t = 0.5; split \
-                 lower/upper at t = 0.5: {:?})",
-                if towards_lower { "lower" } else { "upper" },
+                "{} zone meets the intermediate plane in several pieces at every t tried \
+                 ({tried:?}); kept t = {} (pieces besides each zone's largest: {:.4} mm², \
+                 {:.4} mm² at t = 0.5; split lower/upper at t = 0.5: {:?})",
+                if towards_lower { "a lower" } else { "an upper" },
                 best.t,
                 best.discarded,
                 half.discarded,
@@ -495,7 +496,7 @@ fn intermediate_contours_with(
             ));
         }
     } else if fixed_t.is_none() && half.split == [true, true] {
-        warnings.push(
+        move_warning = Some(
             "zones of both sections meet the mid-plane in several pieces: no plane between \
              the sections mends both; kept t = 0.5"
                 .to_string(),
@@ -513,6 +514,18 @@ fn intermediate_contours_with(
             warnings,
         )
     };
+    // The split the plane could not mend is a warning only if the bridges leave some of it
+    // dropped; where they join every piece, nothing is lost and it is a note.
+    let with_plane_message = |(mut out, dropped): (IntermediateContours, f64)| {
+        if let Some(m) = move_warning.clone() {
+            if dropped == 0.0 {
+                out.notes.push(m);
+            } else {
+                out.warnings.push(m);
+            }
+        }
+        out
+    };
     // A plane moved near a section mends the split, but bridges may mend it at t = ½
     // already: then the paper's plane is kept (see the module docs).
     if let Some(moved) = moved {
@@ -522,11 +535,9 @@ fn intermediate_contours_with(
                 return Ok(at_half);
             }
         }
-        warnings.extend(move_warning);
-        return Ok(build(&moved, warnings).0);
+        return Ok(with_plane_message(build(&moved, warnings)));
     }
-    warnings.extend(move_warning);
-    Ok(build(&half, warnings).0)
+    Ok(with_plane_message(build(&half, warnings)))
 }
 
 /// The intermediate contours at the plane of `chosen`, and the area of split zones' pieces
