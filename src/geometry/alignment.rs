@@ -760,30 +760,37 @@ fn merge_join(merged: &[Vec<f64>], join: &[(f64, f64)]) -> Vec<Vec<f64>> {
 /// total length. Ties go to the diagonal step, then to the step along `sa`.
 fn fan_path(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
     let n = sa.len();
+    debug_assert_eq!(sb.len(), n);
     let w = n + 1;
-    let d = |i: usize, j: usize| d2(sa[i % n], sb[j % n]).sqrt();
-    let mut cost = vec![f64::INFINITY; w * w];
+    // Sample n is sample 0 again: both loops extended so, not indexed modulo n in the inner
+    // loop, which runs (n + 1)² times for each of 16 starts per join.
+    let a: Vec<Point> = sa.iter().chain(sa.first()).copied().collect();
+    let b: Vec<Point> = sb.iter().chain(sb.first()).copied().collect();
     // The step that reached each cell: 0 diagonal, 1 along a (i − 1), 2 along b (j − 1).
     let mut step = vec![0u8; w * w];
-    cost[0] = 0.0;
-    for i in 0..w {
-        for j in 0..w {
-            if i == 0 && j == 0 {
-                continue;
+    // Costs of the row above and of this row.
+    let mut above = vec![0.0; w];
+    let mut here = vec![0.0; w];
+    for j in 1..w {
+        above[j] = above[j - 1] + d2(a[0], b[j]).sqrt();
+        step[j] = 2;
+    }
+    for i in 1..w {
+        let ai = a[i];
+        here[0] = above[0] + d2(ai, b[0]).sqrt();
+        step[i * w] = 1;
+        for j in 1..w {
+            let mut best = (above[j - 1], 0u8);
+            if above[j] < best.0 {
+                best = (above[j], 1);
             }
-            let mut best = (f64::INFINITY, 0u8);
-            if i > 0 && j > 0 {
-                best = (cost[(i - 1) * w + j - 1], 0);
+            if here[j - 1] < best.0 {
+                best = (here[j - 1], 2);
             }
-            if i > 0 && cost[(i - 1) * w + j] < best.0 {
-                best = (cost[(i - 1) * w + j], 1);
-            }
-            if j > 0 && cost[i * w + j - 1] < best.0 {
-                best = (cost[i * w + j - 1], 2);
-            }
-            cost[i * w + j] = best.0 + d(i, j);
+            here[j] = best.0 + d2(ai, b[j]).sqrt();
             step[i * w + j] = best.1;
         }
+        std::mem::swap(&mut above, &mut here);
     }
     let mut path = vec![(n, n)];
     let (mut i, mut j) = (n, n);
@@ -796,7 +803,7 @@ fn fan_path(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
         path.push((i, j));
     }
     path.reverse();
-    (path, cost[w * w - 1])
+    (path, above[n])
 }
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
@@ -844,6 +851,78 @@ fn fit_warp(drift: &[f64]) -> Option<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shortest-rulings path by the whole cost table, indexed modulo n: [`fan_path`]
+    /// as first written, to check the rolling-row version against.
+    fn fan_path_full_table(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
+        let n = sa.len();
+        let w = n + 1;
+        let d = |i: usize, j: usize| d2(sa[i % n], sb[j % n]).sqrt();
+        let mut cost = vec![f64::INFINITY; w * w];
+        let mut step = vec![0u8; w * w];
+        cost[0] = 0.0;
+        for i in 0..w {
+            for j in 0..w {
+                if i == 0 && j == 0 {
+                    continue;
+                }
+                let mut best = (f64::INFINITY, 0u8);
+                if i > 0 && j > 0 {
+                    best = (cost[(i - 1) * w + j - 1], 0);
+                }
+                if i > 0 && cost[(i - 1) * w + j] < best.0 {
+                    best = (cost[(i - 1) * w + j], 1);
+                }
+                if j > 0 && cost[i * w + j - 1] < best.0 {
+                    best = (cost[i * w + j - 1], 2);
+                }
+                cost[i * w + j] = best.0 + d(i, j);
+                step[i * w + j] = best.1;
+            }
+        }
+        let mut path = vec![(n, n)];
+        let (mut i, mut j) = (n, n);
+        while i > 0 || j > 0 {
+            (i, j) = match step[i * w + j] {
+                0 => (i - 1, j - 1),
+                1 => (i - 1, j),
+                _ => (i, j - 1),
+            };
+            path.push((i, j));
+        }
+        path.reverse();
+        (path, cost[w * w - 1])
+    }
+
+    #[test]
+    fn fan_path_matches_the_full_table_bit_for_bit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for n in [3, 4, 17, 64] {
+            for _ in 0..20 {
+                let mut blob = |n: usize| -> Vec<Point> {
+                    (0..n)
+                        .map(|k| {
+                            let th = k as f64 * std::f64::consts::TAU / n as f64;
+                            let r = rng.random_range(2.0..10.0);
+                            [r * th.cos(), r * th.sin()]
+                        })
+                        .collect()
+                };
+                let (sa, sb) = (blob(n), blob(n));
+                let (path, length) = fan_path(&sa, &sb);
+                let (want, want_length) = fan_path_full_table(&sa, &sb);
+                assert_eq!(path, want, "n = {n}");
+                assert_eq!(length.to_bits(), want_length.to_bits(), "n = {n}");
+            }
+        }
+        // Ties (equal distances everywhere) go the same way too.
+        let square: Vec<Point> = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        assert_eq!(
+            fan_path(&square, &square),
+            fan_path_full_table(&square, &square)
+        );
+    }
 
     fn ring(n: usize, r: f64, z: f64, phase: f64) -> Vec<[f64; 3]> {
         (0..n)
