@@ -792,6 +792,12 @@ fn fan_path(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
         }
         std::mem::swap(&mut above, &mut here);
     }
+    (path_back(&step, n), above[n])
+}
+
+/// The path from (0, 0) to (n, n) that `step` (of [`fan_path`]'s table) leads back along.
+fn path_back(step: &[u8], n: usize) -> Vec<(usize, usize)> {
+    let w = n + 1;
     let mut path = vec![(n, n)];
     let (mut i, mut j) = (n, n);
     while i > 0 || j > 0 {
@@ -803,7 +809,7 @@ fn fan_path(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
         path.push((i, j));
     }
     path.reverse();
-    (path, above[n])
+    path
 }
 
 /// Least squares with Huber weights (a few reweighting rounds) of the harmonics to `drift`
@@ -853,7 +859,7 @@ mod tests {
     use super::*;
 
     /// The shortest-rulings path by the whole cost table, indexed modulo n: [`fan_path`]
-    /// as first written, to check the rolling-row version against.
+    /// as first written (but for the shared way back), to check the rolling rows against.
     fn fan_path_full_table(sa: &[Point], sb: &[Point]) -> (Vec<(usize, usize)>, f64) {
         let n = sa.len();
         let w = n + 1;
@@ -880,18 +886,7 @@ mod tests {
                 step[i * w + j] = best.1;
             }
         }
-        let mut path = vec![(n, n)];
-        let (mut i, mut j) = (n, n);
-        while i > 0 || j > 0 {
-            (i, j) = match step[i * w + j] {
-                0 => (i - 1, j - 1),
-                1 => (i - 1, j),
-                _ => (i, j - 1),
-            };
-            path.push((i, j));
-        }
-        path.reverse();
-        (path, cost[w * w - 1])
+        (path_back(&step, n), cost[w * w - 1])
     }
 
     #[test]
