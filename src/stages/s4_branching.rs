@@ -913,7 +913,8 @@ impl Assembler {
                     };
                     let opening =
                         outer.is_none() && across.is_some_and(|a| opens(section, holes, a));
-                    let height = if opening {
+                    let floating = outer.is_some_and(|o| in_a_hole(section, o));
+                    let height = if opening || floating {
                         LEAST_CAP_HEIGHT * t.spacing
                     } else {
                         let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
@@ -1046,6 +1047,22 @@ pub fn run(
         }
     }
     Ok(stats)
+}
+
+/// Whether contour `k` of `section` lies inside one of its holes: an island in a cavity.
+/// Capped alone, such an island caps at the least height. The cavity goes on across while
+/// the island does not, so the cavity's wall between the slices may sweep over the island's
+/// footprint, and a dome half a slice deep crossed it (the GE head's bone islands in the
+/// cranial cavity: 340 faces); near its own slice the wall is near its own contour, which
+/// the island's does not meet.
+fn in_a_hole(section: &Section, k: usize) -> bool {
+    let Some(&p) = section.contours[k].points.first() else {
+        return false;
+    };
+    section
+        .contours
+        .iter()
+        .any(|c| c.hole && contains(&c.points, p))
 }
 
 /// Fraction of a capped void's footprint that must be void across its cap too for the void
