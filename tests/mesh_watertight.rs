@@ -451,3 +451,43 @@ fn an_island_in_a_cavity_caps_low_and_clears_the_cavity_wall() {
     );
     assert_eq!(near_island, 0);
 }
+
+/// An island of bone on slice 5 only, in a bay of a block (over the bay's void on slices 4 and
+/// 6), caps a tenth of a slice beyond its slice, not half a slice: the block's walls between
+/// the slices may sweep over it (the GE head's crescent island 214 at slice 9: 189 faces). An
+/// island beside the block, outside its box, keeps half a slice.
+#[test]
+fn an_island_in_a_bay_caps_low_and_a_lone_island_half_a_slice() {
+    let images = solid_images(|k, x, y| {
+        let block =
+            (1..=8).contains(&k) && (10.0..=50.0).contains(&x) && (10.0..=50.0).contains(&y);
+        // Open through the block's side at y = 50.
+        let bay = (20.0..=40.0).contains(&x) && y >= 20.0;
+        let island = k == 5 && (27.0..=33.0).contains(&x) && (30.0..=36.0).contains(&y);
+        let lone = k == 5 && (60.0..=66.0).contains(&x) && (30.0..=36.0).contains(&y);
+        (block && !bay) || island || lone
+    });
+    let tris = closed_mesh(&images);
+    let heights = |x: [f64; 2], y: [f64; 2]| {
+        tris.iter()
+            .flatten()
+            .filter(|p| p[0] >= x[0] && p[0] <= x[1] && p[1] >= y[0] && p[1] <= y[1])
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |r, p| {
+                [r[0].min(p[2]), r[1].max(p[2])]
+            })
+    };
+    let island = heights([26.0, 34.0], [29.0, 37.0]);
+    let lone = heights([59.0, 67.0], [29.0, 37.0]);
+    eprintln!(
+        "island from z = {:.3} to {:.3}, lone island {:.3} to {:.3}",
+        island[0], island[1], lone[0], lone[1]
+    );
+    assert!(
+        (island[0] - 4.9).abs() < 1e-6 && (island[1] - 5.1).abs() < 1e-6,
+        "{island:?}"
+    );
+    assert!(
+        (lone[0] - 4.5).abs() < 1e-6 && (lone[1] - 5.5).abs() < 1e-6,
+        "{lone:?}"
+    );
+}

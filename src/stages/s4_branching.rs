@@ -24,7 +24,7 @@ use crate::geometry::conform::{conform, remove_spikes, weld};
 use crate::geometry::keyhole::{join_rings, open_slits, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
-use crate::geometry::polygon::{contains, signed_area};
+use crate::geometry::polygon::{bbox, contains, signed_area};
 use crate::mesh::seal;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
@@ -913,12 +913,21 @@ impl Assembler {
                     };
                     let opening =
                         outer.is_none() && across.is_some_and(|a| opens(section, holes, a));
-                    let floating = outer.is_some_and(|o| in_a_hole(section, o));
+                    let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
+                    let widths = self.cap_widths(section, *side, &ids, ahead);
+                    // Islands that neighbours' walls may sweep over (see `in_a_hole` and
+                    // `in_a_bay`); the latter only where no three sections estimate the
+                    // height, which would be half a slice.
+                    let floating = outer.is_some_and(|o| {
+                        in_a_hole(section, o)
+                            || (widths.len() < 3
+                                && across.is_some_and(|a| opens(section, &[o], a))
+                                && in_a_bay(section, o))
+                    });
                     let height = if opening || floating {
                         LEAST_CAP_HEIGHT * t.spacing
                     } else {
-                        let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
-                        cap_height(&self.cap_widths(section, *side, &ids, ahead), t.spacing)
+                        cap_height(&widths, t.spacing)
                     };
                     let dz = match side {
                         Side::Above => height,
@@ -1063,6 +1072,27 @@ fn in_a_hole(section: &Section, k: usize) -> bool {
         .contours
         .iter()
         .any(|c| c.hole && contains(&c.points, p))
+}
+
+/// Whether contour `k` of `section` lies within the bounding box of a larger outer contour:
+/// an island in one of its bays, or beside it, among its walls. Capped alone over void, with
+/// no sections to estimate its end from, such an island caps at the least height rather than
+/// half a slice: the larger contour's walls between the slices may sweep over its footprint
+/// (the GE head's crescent island 214 at slice 9, in a bay that band 198 sweeps over: 189
+/// faces).
+fn in_a_bay(section: &Section, k: usize) -> bool {
+    let own = bbox(&section.contours[k].points);
+    let area = signed_area(&section.contours[k].points).abs();
+    section.contours.iter().enumerate().any(|(j, c)| {
+        let b = bbox(&c.points);
+        j != k
+            && !c.hole
+            && signed_area(&c.points).abs() > area
+            && b[0] <= own[0]
+            && b[1] <= own[1]
+            && b[2] >= own[2]
+            && b[3] >= own[3]
+    })
 }
 
 /// Fraction of a capped void's footprint that must be void across its cap too for the void
