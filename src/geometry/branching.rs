@@ -30,13 +30,13 @@
 //! same towards 1 (`1 − t`); stop at the first `t` where no zone of either side is split. If
 //! both sides split at `t = ½`, or no `t` tried mends it, the `t` with the least discarded
 //! area is kept (a `t` at which a zone misses `M_t` altogether is never preferred) and a
-//! warning says so; a note instead where the bridges then join every piece. But a plane moved nearer a section than [`NEAR_SECTION_T`] (0.15, 0.08)
-//! leaves a band a sixth of a slice high or less between the intermediate contour and the
-//! contour beside it, which folds more often than a wall rising from a slit: where bridges
-//! (see [`super::bridges`]) join every piece of the split zones at `t = ½`, dropping
-//! nothing, `t = ½` is kept after all (skull at `--chordal 0.4`: 3 580 crossing faces
-//! against 4 101; doing so for every moved plane, 3 781, and a phantom's window got a wall
-//! hanging 2.5 mm into it).
+//! warning says so; a note instead where the bridges then join every piece. But a plane
+//! moved nearer a section than [`NEAR_SECTION_T`] (0.15, 0.08) leaves a band a sixth of a
+//! slice high or less between the intermediate contour and the contour beside it, which
+//! folds more often than a wall rising from a slit: where bridges (see [`super::bridges`])
+//! join every piece of the split zones at `t = ½`, dropping nothing, `t = ½` is kept after
+//! all (skull at `--chordal 0.4`: 3 580 crossing faces against 4 101; doing so for every
+//! moved plane, 3 781, and a phantom's window got a wall hanging 2.5 mm into it).
 //! The caller lifts the intermediate contours to `z1 + t·(z2 − z1)`.
 //! The distance fields do not depend on `t`: only `φ_t` and the zone loops are recomputed.
 //!
@@ -516,8 +516,8 @@ fn intermediate_contours_with(
     };
     // The split the plane could not mend is a warning only if the bridges leave some of it
     // dropped; where they join every piece, nothing is lost and it is a note.
-    let with_plane_message = |(mut out, dropped): (IntermediateContours, f64)| {
-        if let Some(m) = move_warning.clone() {
+    let with_plane_message = move |(mut out, dropped): (IntermediateContours, f64)| {
+        if let Some(m) = move_warning {
             if dropped == 0.0 {
                 out.notes.push(m);
             } else {

@@ -913,21 +913,25 @@ impl Assembler {
                     };
                     let opening =
                         outer.is_none() && across.is_some_and(|a| opens(section, holes, a));
-                    let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
-                    let widths = self.cap_widths(section, *side, &ids, ahead);
-                    // Islands that neighbours' walls may sweep over (see `in_a_hole` and
-                    // `in_a_bay`); the latter only where no three sections estimate the
-                    // height, which would be half a slice.
-                    let floating = outer.is_some_and(|o| {
-                        in_a_hole(section, o)
-                            || (widths.len() < 3
-                                && across.is_some_and(|a| opens(section, &[o], a))
-                                && in_a_bay(section, o))
-                    });
-                    let height = if opening || floating {
-                        LEAST_CAP_HEIGHT * t.spacing
+                    // Islands that neighbours' walls may sweep over cap low too (see
+                    // `in_a_hole` and `in_a_bay`); one in a bay only where no three sections
+                    // estimate the height, which would be half a slice.
+                    let least = LEAST_CAP_HEIGHT * t.spacing;
+                    let height = if opening || outer.is_some_and(|o| in_a_hole(section, o)) {
+                        least
                     } else {
-                        cap_height(&widths, t.spacing)
+                        let ids: Vec<usize> = outer.iter().chain(holes).copied().collect();
+                        let widths = self.cap_widths(section, *side, &ids, ahead);
+                        let in_bay = widths.len() < 3
+                            && outer.is_some_and(|o| {
+                                across.is_some_and(|a| opens(section, &[o], a))
+                                    && in_a_bay(section, o)
+                            });
+                        if in_bay {
+                            least
+                        } else {
+                            cap_height(&widths, t.spacing)
+                        }
                     };
                     let dz = match side {
                         Side::Above => height,
