@@ -1,10 +1,11 @@
 //! Property tests of keyholes (`geometry::keyhole`): on random contours with random holes and
 //! a small contour in the middle of the other slice, slits are found, each is admissible, and the loop is the
 //! material it joins (weakly simple, its area the contour's less the holes', every point of
-//! contour and holes on it); and with a thin wall beside the hole that lies over the other
+//! contour and holes on it; with another keyhole's feet too, still so, and sharing every ring
+//! vertex with that keyhole's loop); and with a thin wall beside the hole that lies over the other
 //! slice's thin wall, the slit still closes the other slice's bay mouth.
 
-use bskin::geometry::keyhole::{keyhole_loop, slits, with_feet, Slit};
+use bskin::geometry::keyhole::{join_rings, keyhole_loop, slits, with_feet, Slit};
 use bskin::geometry::polygon::{contains, is_weakly_simple, signed_area, Point};
 use proptest::prelude::*;
 
@@ -96,6 +97,24 @@ proptest! {
         prop_assert!(is_weakly_simple(&l));
         for r in &rings_in {
             prop_assert!(r.iter().all(|p| l.contains(p)));
+        }
+        // Another keyhole of the same rings (slits found against another slice's contour),
+        // as where the region below ends on one loop and the region above starts on the
+        // other: each with the other's feet, the two share every ring vertex bit for bit.
+        let shifted = star([5.0, 3.0], &below_r, true);
+        let other = slits(&outer, &refs, &[], &[&shifted], 0.5, true);
+        prop_assert!(other.is_some(), "no slits against the shifted disc");
+        if let Some(other) = other {
+            let (ra, la) = join_rings(&rings_in, &cuts, &other, 0.7);
+            let (rb, lb) = join_rings(&rings_in, &other, &cuts, 0.7);
+            prop_assert_eq!(&ra, &rb);
+            for r in &ra {
+                prop_assert!(r.iter().all(|p| la.contains(p) && lb.contains(p)));
+            }
+            for l in [&la, &lb] {
+                prop_assert!((signed_area(l) - want).abs() < 1e-6 * want.abs());
+                prop_assert!(is_weakly_simple(l));
+            }
         }
     }
 

@@ -357,6 +357,37 @@ fn a_mouth_closed_on_one_slice_runs_through_its_keyhole() {
     assert!(crossing.iter().filter(|&&c| c).count() < 662 / 2);
 }
 
+/// The same block with its cavity opening through one side below slice 5 (the mouth at y
+/// 44–50 on slices 3–4), closed on slice 5, and through the opposite side above it (y 10–20,
+/// slices 6–8). The slit across the mouth below lies over the wall above, where the mouth
+/// opens 24 mm round the ring: running on through that loop, the bay's walls above rose from
+/// the wrong side of the ring and swept across the cavity (455 triangles inside it, 199
+/// faces crossing another). The region below now ends on that loop and the one above starts
+/// on the ring joined across the mouth above (the two loops share the ring's points): the
+/// mesh stays closed, none of it lies inside the cavity, and 86 faces cross.
+#[test]
+fn a_ring_between_mouths_on_opposite_sides_rekeyholes() {
+    let images = solid_images(|k, x, y| {
+        let block = (10.0..=70.0).contains(&x) && (10.0..=50.0).contains(&y);
+        let cavity = (30.0..=50.0).contains(&x) && (20.0..=44.0).contains(&y);
+        let slot = (37.0..=43.0).contains(&x);
+        let void = match k {
+            1..=2 => false,
+            3..=4 => cavity || (slot && y > 44.0),
+            5 => cavity,
+            6..=8 => cavity || (slot && y < 20.0),
+            _ => true,
+        };
+        block && !void
+    });
+    let tris = closed_mesh(&images);
+    let crossing = common::crossing_faces(&tris, 1e-6);
+    let n = crossing.iter().filter(|&&c| c).count();
+    eprintln!("{n} of {} faces cross another", tris.len());
+    assert_none_inside(&tris, [33.0, 23.0, 3.2], [47.0, 41.0, 7.8]);
+    assert!(n < 199 / 2);
+}
+
 /// Two pillars (slices 1–4) that merge into one block (slices 5–8) with a window over the gap
 /// between them: a branching whose upper contour has a hole with no hole below. The hole
 /// joins its contour in a keyhole across the bridge below the window, so the gap's walls rise

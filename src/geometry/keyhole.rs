@@ -157,6 +157,24 @@ pub fn slits(
     Some(out)
 }
 
+/// Whether the middle half of every slit of `slits` (joining `rings`: the contour, then the
+/// holes in their order) lies clear of the contours `outside_of`, as [`slits`] asks of the
+/// slits it prefers: over the void on that side, not over its material.
+pub fn lie_clear(rings: &[&[Point]], slits: &[Slit], outside_of: &[&[Point]]) -> bool {
+    let other_slice: Vec<BoundaryIndex> =
+        outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
+    slits.iter().all(|s| {
+        let (Some(_), Some(_)) = (rings.get(s.from.ring), rings.get(s.to.ring)) else {
+            return false;
+        };
+        let (a, b) = (at(rings, s.from), at(rings, s.to));
+        [0.25, 0.5, 0.75].iter().all(|&t| {
+            let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+            clear_of(&other_slice, p, CLEAR)
+        })
+    })
+}
+
 /// Where along `a`–`b` (0 to 1) the point closest to `p` lies.
 fn project(a: Point, b: Point, p: Point) -> f64 {
     let d = [b[0] - a[0], b[1] - a[1]];
@@ -489,21 +507,26 @@ pub fn search_step(hole: &[Point]) -> f64 {
     (perimeter(hole) / 256.0).max(0.02)
 }
 
-/// `rings` (the contour, then the holes `slits` join) with the slits' feet inserted, and the
-/// keyhole loop joining them, its slits cut into pieces of at most `step` mm: for points in
-/// the plane or in space.
+/// `rings` (the contour, then the holes `slits` join) with the feet of `slits` and `also`
+/// inserted, and the keyhole loop joining them by `slits`, cut into pieces of at most `step`
+/// mm: for points in the plane or in space. `also` are the slits of the same rings' other
+/// keyhole on the same slice (the region across the slice ends or starts on that one: see
+/// `stages::s3_correspondence::Joined::also`): with their feet in both loops, the two share
+/// every ring vertex.
 pub fn join_rings<const D: usize>(
     rings: &[&[[f64; D]]],
     slits: &[Slit],
+    also: &[Slit],
     step: f64,
 ) -> (Vec<Vec<[f64; D]>>, Vec<[f64; D]>) {
     let lerp = |a: [f64; D], b: [f64; D], t: f64| -> [f64; D] {
         std::array::from_fn(|d| a[d] + t * (b[d] - a[d]))
     };
+    let feet: Vec<Slit> = slits.iter().chain(also).copied().collect();
     let with: Vec<Vec<[f64; D]>> = rings
         .iter()
         .enumerate()
-        .map(|(r, pts)| with_feet(pts, r, slits, lerp))
+        .map(|(r, pts)| with_feet(pts, r, &feet, lerp))
         .collect();
     let refs: Vec<&[[f64; D]]> = with.iter().map(|r| r.as_slice()).collect();
     let pieces = |a: [f64; D], b: [f64; D]| {
@@ -513,7 +536,7 @@ pub fn join_rings<const D: usize>(
     let between = |a: [f64; D], b: [f64; D], n: usize| -> Vec<[f64; D]> {
         (1..n).map(|s| lerp(a, b, s as f64 / n as f64)).collect()
     };
-    let joined = keyhole_loop(&refs, slits, pieces, between);
+    let joined = keyhole_loop_among(&refs, slits, &feet, pieces, between);
     (with, joined)
 }
 
@@ -576,14 +599,20 @@ pub fn keyhole_loop<T: Copy>(
     pieces: impl Fn(T, T) -> usize,
     between: impl Fn(T, T, usize) -> Vec<T>,
 ) -> Vec<T> {
+    keyhole_loop_among(rings, slits, slits, pieces, between)
+}
+
+/// [`keyhole_loop`] of rings [`with_feet`] of `feet` (the slits' own and others').
+fn keyhole_loop_among<T: Copy>(
+    rings: &[&[T]],
+    slits: &[Slit],
+    feet: &[Slit],
+    pieces: impl Fn(T, T) -> usize,
+    between: impl Fn(T, T, usize) -> Vec<T>,
+) -> Vec<T> {
     let ends: Vec<(usize, usize)> = slits
         .iter()
-        .map(|s| {
-            (
-                index_after_feet(s.from, slits),
-                index_after_feet(s.to, slits),
-            )
-        })
+        .map(|s| (index_after_feet(s.from, feet), index_after_feet(s.to, feet)))
         .collect();
     let mut out = Vec::new();
     emit(0, 0, rings, slits, &ends, &pieces, &between, &mut out);

@@ -18,7 +18,7 @@ use crossbeam_channel::Sender;
 
 use super::{Control, StageStats};
 use crate::geometry::contours::nesting;
-use crate::geometry::keyhole::{search_step, slits, Slit};
+use crate::geometry::keyhole::{lie_clear, search_step, slits, Slit};
 use crate::geometry::overlap::{overlap_area, regions_overlap, Region as Material};
 use crate::geometry::polygon::{bbox, signed_area, Point};
 use crate::section::{Contour, Section};
@@ -45,6 +45,10 @@ pub struct Joined {
     pub contour: usize,
     pub holes: Vec<usize>,
     pub slits: Vec<Slit>,
+    /// The slits of the same rings' other keyhole on this slice, where the region below ends
+    /// on one keyhole loop and the region above starts on another (see [`rekeyholed`]): both
+    /// loops carry both slits' feet, so they share every ring vertex. Empty otherwise.
+    pub also: Vec<Slit>,
 }
 
 impl Joined {
@@ -332,6 +336,7 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
         contour: k,
         holes: Vec::new(),
         slits: Vec::new(),
+        also: Vec::new(),
     };
     for &c in &candidates {
         let mut trial = best.holes.clone();
@@ -348,6 +353,38 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
         }
     }
     best
+}
+
+/// Contour `k` of `own` joined again with the holes of the keyhole it `started` from, by
+/// slits over the mouth of `others` (the contour it links to), where the started slits lie
+/// over that contour's material and the new ones clear of it; `None` where the started
+/// loop serves (the region runs on through it) or no such slits are found.
+///
+/// A bay that closes into a hole on one slice only can open on either side through a
+/// different mouth: a ring on one slice, the bay's mouth on one side of it below and on the
+/// other above (abdomen surfaces 102 and 190: a wall 1–2 mm thick round a vessel). Running
+/// on through the loop whose slits cross the mouth below takes the slits, 1 mm long, across
+/// the wall above while that wall's mouth opens 15 mm round the ring: the walls of the
+/// bay's two sides then swap places between the slices and cross. Ending the region there on
+/// that loop and starting the next on the ring joined across the mouth above, each side's
+/// walls rise to their own mouth (the two loops share the ring; each side's slits fold
+/// within its own surface).
+fn rekeyholed(own: &View, k: usize, started: &Joined, others: &[&[Point]]) -> Option<Joined> {
+    let rings: Vec<&[Point]> = std::iter::once(own.pts[k])
+        .chain(started.holes.iter().map(|&h| own.pts[h]))
+        .collect();
+    if lie_clear(&rings, &started.slits, others) {
+        return None;
+    }
+    let again = joinable(own, k, &started.holes, others);
+    // The same rings in the same order, so that either loop's feet index both.
+    (again.holes == started.holes
+        && again.slits != started.slits
+        && lie_clear(&rings, &again.slits, others))
+    .then(|| Joined {
+        also: started.slits.clone(),
+        ..again
+    })
 }
 
 /// Turns outer links and branchings whose contours have lone holes opening onto the other
@@ -414,11 +451,17 @@ fn join_keyholes(
                 // (Not where the upper contour starts from a keyhole itself: the region
                 // would end where it starts.)
                 if let (Some(k), false) = (through(*i, &others), up.is_keyhole()) {
-                    return Problem::Link {
-                        hole: false,
-                        lower: *i,
-                        upper: *j,
-                        through: k.holes.clone(),
+                    return match rekeyholed(lower, *i, k, &others) {
+                        Some(rekeyed) => Problem::Keyhole {
+                            lower: rekeyed,
+                            upper: up,
+                        },
+                        None => Problem::Link {
+                            hole: false,
+                            lower: *i,
+                            upper: *j,
+                            through: k.holes.clone(),
+                        },
                     };
                 }
                 let lo = join_lower(*i, &others);
@@ -487,6 +530,7 @@ pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<Option<Joined>> {
                 contour: h,
                 holes: Vec::new(),
                 slits: Vec::new(),
+                also: Vec::new(),
             });
         }
         started[j.contour] = Some(j.clone());
@@ -665,6 +709,7 @@ fn end_transition(section: &Arc<Section>, side: Side, spacing: f64) -> Transitio
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::keyhole::Foot;
     use crate::section::{SliceFrame, SliceSource};
 
     fn section(index: usize, contours: Vec<(Vec<Point>, bool)>) -> Section {
@@ -751,6 +796,7 @@ mod tests {
             contour: 0,
             holes: vec![2],
             slits: Vec::new(),
+            also: Vec::new(),
         };
         let problems = correspond(&lower, &upper, &[Some(other), started[1].clone()]);
         assert!(
@@ -773,6 +819,60 @@ mod tests {
             "{problems:?}"
         );
         assert!(problems[0].runs_through(0) && !problems[0].runs_through(1));
+    }
+
+    /// [`bay`] upside down: the mouth in the bottom edge (x 18–22, y 0–8).
+    fn bay_below() -> Vec<Point> {
+        vec![
+            [0.0, 0.0],
+            [18.0, 0.0],
+            [18.0, 8.0],
+            [10.0, 8.0],
+            [10.0, 18.0],
+            [30.0, 18.0],
+            [30.0, 8.0],
+            [22.0, 8.0],
+            [22.0, 0.0],
+            [40.0, 0.0],
+            [40.0, 20.0],
+            [0.0, 20.0],
+        ]
+    }
+
+    #[test]
+    fn a_hole_closing_mouths_on_opposite_sides_is_joined_again_across_the_one_above() {
+        // The bay opens through the top edge below, through the bottom edge above.
+        let (lower, middle) = (section(0, vec![(bay(), false)]), block_with_hole());
+        let upper = section(2, vec![(bay_below(), false)]);
+        let first = correspond(&lower, &middle, &[]);
+        let started = keyholed_upper(&first, 2);
+        let below = started[0].clone().expect("a keyhole");
+        let problems = correspond(&middle, &upper, &started);
+        let [Problem::Keyhole { lower, upper }] = problems.as_slice() else {
+            panic!("{problems:?}");
+        };
+        assert!(!upper.is_keyhole());
+        assert_eq!((lower.contour, &lower.holes), (0, &vec![1]));
+        // The loop below keeps its slit; the one above is joined across the lower wall
+        // (y 0–8) and carries the other's feet.
+        assert_eq!(lower.also, below.slits);
+        let rings = [
+            middle.contours[0].points.as_slice(),
+            &middle.contours[1].points,
+        ];
+        let foot = |f: Foot| {
+            let r = rings[f.ring];
+            let (a, b) = (r[f.edge], r[(f.edge + 1) % r.len()]);
+            [a[0] + f.t * (b[0] - a[0]), a[1] + f.t * (b[1] - a[1])]
+        };
+        let (old, new) = (below.slits[0], lower.slits[0]);
+        assert!(
+            foot(old.from)[1] > 17.0 && foot(new.from)[1] < 8.0,
+            "{old:?} {new:?}"
+        );
+        // With the mouth on the same side above, the region runs on through the loop.
+        let problems = correspond(&middle, &section(2, vec![(bay(), false)]), &started);
+        assert!(problems[0].runs_through(0), "{problems:?}");
     }
 
     #[test]

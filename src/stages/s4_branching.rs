@@ -77,7 +77,7 @@ fn keyhole_of(section: &Section, joined: &Joined, step: f64) -> Keyhole {
         .map(|c| contour_curve(section, c).points)
         .collect();
     let refs: Vec<&[[f64; 3]]> = curves.iter().map(|c| c.as_slice()).collect();
-    let (rings, joined) = join_rings(&refs, &joined.slits, step);
+    let (rings, joined) = join_rings(&refs, &joined.slits, &joined.also, step);
     Keyhole { rings, joined }
 }
 
@@ -89,7 +89,7 @@ fn keyhole_in(frame: &SliceFrame, section: &Section, joined: &Joined, step: f64)
         .map(|c| in_frame(frame, section, c))
         .collect();
     let refs: Vec<&[Point]> = polys.iter().map(|p| p.as_slice()).collect();
-    join_rings(&refs, &joined.slits, step).1
+    join_rings(&refs, &joined.slits, &joined.also, step).1
 }
 
 /// Contour `k` of `section` in `frame`, as stored (holes clockwise).
@@ -224,6 +224,7 @@ fn rejoin(
         contour: k,
         holes: Vec::new(),
         slits: Vec::new(),
+        also: Vec::new(),
     };
     if holes.is_empty() {
         return Some(plain);
@@ -270,7 +271,7 @@ fn join_holes(
     match slits(outer, &refs, &[], outside_of, min_search_step(&refs), false) {
         Some(cuts) => {
             let rings: Vec<&[Point]> = std::iter::once(outer.as_slice()).chain(refs).collect();
-            *outer = join_rings(&rings, &cuts, slit_step(cell_mm)).1;
+            *outer = join_rings(&rings, &cuts, &[], slit_step(cell_mm)).1;
         }
         None => warn(format!(
             "{} hole(s) of an intermediate contour could not be joined to it by a slit; filled",
@@ -293,6 +294,22 @@ fn runs_through(ahead: &[Transition], k: usize) -> bool {
     ahead
         .first()
         .is_some_and(|n| n.problems.iter().any(|p| p.runs_through(k)))
+}
+
+/// The keyhole of `joined`'s rings that the next transition (the first of `ahead`) starts a
+/// region on, where correspondence joined them again across another mouth
+/// (`Joined::also`, which then holds `joined`'s slits).
+fn rekeyholed_next<'a>(ahead: &'a [Transition], joined: &Joined) -> Option<&'a Joined> {
+    ahead.first()?.problems.iter().find_map(|p| match p {
+        Problem::Keyhole { lower, .. }
+            if lower.contour == joined.contour
+                && lower.holes == joined.holes
+                && lower.also == joined.slits =>
+        {
+            Some(lower)
+        }
+        _ => None,
+    })
 }
 
 /// Slits are sampled at twice the distance-map cell, like the ridge loops' paths.
@@ -521,6 +538,8 @@ pub struct Assembler {
     /// Width of the channels the slits of such a loop open into (mm; see
     /// [`crate::geometry::keyhole::open_slits`]).
     channel_mm: f64,
+    /// Sampling of the slits of keyhole loops built here ([`slit_step`]).
+    slit_mm: f64,
 }
 
 impl Assembler {
@@ -531,6 +550,7 @@ impl Assembler {
         Assembler {
             max_curves,
             channel_mm: 4.0 * cell_mm,
+            slit_mm: slit_step(cell_mm),
             ..Default::default()
         }
     }
@@ -640,8 +660,13 @@ impl Assembler {
         let ids = std::iter::once(&joined.contour).chain(&joined.holes);
         for (&c, ring) in ids.zip(k.rings) {
             let mut r = self.take(c, section)?;
-            // Correspondence never joins a contour that started from a keyhole (it has
-            // one curve yet), and chains are not split just before one.
+            // The rings the region below ended on, on the other keyhole of this slice
+            // (`Joined::also`): nothing lies between the two loops.
+            if r.curves.len() == 1 && !joined.also.is_empty() {
+                continue;
+            }
+            // Otherwise correspondence never joins a contour that started from a keyhole
+            // (it has one curve yet), and chains are not split just before one.
             if r.curves.len() < 2 {
                 return Err(Error::Internal(format!(
                     "slice {}: contour {c} ends in a keyhole where it starts",
@@ -671,8 +696,10 @@ impl Assembler {
 
     /// Ends `r` on the keyhole loop of `joined` in `section` and opens the regions of its
     /// contour and holes on their rings (the slits' feet inserted), or, where the next
-    /// transition carries the loop's holes on (`through`: the mouth is closed on this slice
-    /// only), lets `r` run on with the loop as one of its curves, in the contour's place.
+    /// transition (the first of `ahead`) carries the loop's holes on (the mouth is closed on
+    /// this slice only), lets `r` run on with the loop as one of its curves, in the
+    /// contour's place. Where the next transition starts a region on another keyhole of the
+    /// same rings instead (`Joined::also`), this loop takes that one's feet too.
     #[allow(clippy::too_many_arguments)] // the region, its loop and where it goes next
     fn start_from_keyhole(
         &mut self,
@@ -680,10 +707,21 @@ impl Assembler {
         joined: &Joined,
         k: Keyhole,
         mut r: Region,
-        through: bool,
+        ahead: &[Transition],
         next: &mut [Option<Region>],
         closed: &mut Vec<Region>,
     ) {
+        let through = runs_through(ahead, joined.contour);
+        let k = match rekeyholed_next(ahead, joined) {
+            Some(other) => {
+                let both = Joined {
+                    also: other.slits.clone(),
+                    ..joined.clone()
+                };
+                keyhole_of(section, &both, self.slit_mm)
+            }
+            None => k,
+        };
         let mut points = k.joined;
         if through {
             // Inside the region the slits open into channels (only the slits' points move;
@@ -870,18 +908,15 @@ impl Assembler {
                             .position(|j| j.contour == k)
                             .and_then(|n| upper_keyholes[n].take());
                         match key {
-                            Some((j, key)) if j.is_keyhole() => {
-                                let through = runs_through(ahead, j.contour);
-                                self.start_from_keyhole(
-                                    up,
-                                    &j,
-                                    key,
-                                    r,
-                                    through,
-                                    &mut next,
-                                    &mut closed,
-                                )
-                            }
+                            Some((j, key)) if j.is_keyhole() => self.start_from_keyhole(
+                                up,
+                                &j,
+                                key,
+                                r,
+                                ahead,
+                                &mut next,
+                                &mut closed,
+                            ),
                             _ => {
                                 r.curves.push(contour_curve(up, k));
                                 next[k] = Some(r);
@@ -985,16 +1020,7 @@ impl Assembler {
                             next[upper.contour] = Some(r);
                         }
                         Some(k) => {
-                            let through = runs_through(ahead, upper.contour);
-                            self.start_from_keyhole(
-                                up,
-                                upper,
-                                k,
-                                r,
-                                through,
-                                &mut next,
-                                &mut closed,
-                            )
+                            self.start_from_keyhole(up, upper, k, r, ahead, &mut next, &mut closed)
                         }
                     }
                 }
