@@ -362,10 +362,10 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
 ///
 /// A bay that closes into a hole on one slice only can open on either side through a
 /// different mouth: a ring on one slice, the bay's mouth on one side of it below and on the
-/// other above (abdomen surfaces 102 and 190: a wall 1–2 mm thick round a vessel). Running
-/// on through the loop whose slits cross the mouth below takes the slits, 1 mm long, across
-/// the wall above while that wall's mouth opens 15 mm round the ring: the walls of the
-/// bay's two sides then swap places between the slices and cross. Ending the region there on
+/// other above (abdomen surface 190: a wall 1–2 mm thick round a slot). Running on through
+/// the loop whose slits cross the mouth below takes the slits, 1 mm long, across the wall
+/// above while that wall's mouth opens 15 mm round the ring: the walls of the bay's two
+/// sides then swap places between the slices and cross (147 faces). Ending the region there on
 /// that loop and starting the next on the ring joined across the mouth above, each side's
 /// walls rise to their own mouth (the two loops share the ring; each side's slits fold
 /// within its own surface).
