@@ -49,6 +49,11 @@ pub struct Joined {
     /// on one keyhole loop and the region above starts on another (see [`rekeyholed`]): both
     /// loops carry both slits' feet, so they share every ring vertex. Empty otherwise.
     pub also: Vec<Slit>,
+    /// Stage 4 builds the loop from exactly these slits: a keyhole problem's. A branching
+    /// may join its keyholes' rings again (`s4_branching::rejoin`), so the loop another
+    /// keyhole's feet must match is only known there, and such keyholes are not joined
+    /// again ([`rekeyholed`]).
+    pub as_built: bool,
 }
 
 impl Joined {
@@ -337,6 +342,7 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
         holes: Vec::new(),
         slits: Vec::new(),
         also: Vec::new(),
+        as_built: false,
     };
     for &c in &candidates {
         let mut trial = best.holes.clone();
@@ -370,6 +376,9 @@ fn joinable(own: &View, k: usize, lone: &[usize], others: &[&[Point]]) -> Joined
 /// walls rise to their own mouth (the two loops share the ring; each side's slits fold
 /// within its own surface).
 fn rekeyholed(own: &View, k: usize, started: &Joined, others: &[&[Point]]) -> Option<Joined> {
+    if !started.as_built {
+        return None;
+    }
     let rings: Vec<&[Point]> = std::iter::once(own.pts[k])
         .chain(started.holes.iter().map(|&h| own.pts[h]))
         .collect();
@@ -385,6 +394,20 @@ fn rekeyholed(own: &View, k: usize, started: &Joined, others: &[&[Point]]) -> Op
         also: started.slits.clone(),
         ..again
     })
+}
+
+/// The keyhole problem of `lower` and `upper`, their loops built as joined here.
+fn keyhole_problem(lower: Joined, upper: Joined) -> Problem {
+    Problem::Keyhole {
+        lower: Joined {
+            as_built: true,
+            ..lower
+        },
+        upper: Joined {
+            as_built: true,
+            ..upper
+        },
+    }
 }
 
 /// Turns outer links and branchings whose contours have lone holes opening onto the other
@@ -452,10 +475,7 @@ fn join_keyholes(
                 // would end where it starts.)
                 if let (Some(k), false) = (through(*i, &others), up.is_keyhole()) {
                     return match rekeyholed(lower, *i, k, &others) {
-                        Some(rekeyed) => Problem::Keyhole {
-                            lower: rekeyed,
-                            upper: up,
-                        },
+                        Some(rekeyed) => keyhole_problem(rekeyed, up),
                         None => Problem::Link {
                             hole: false,
                             lower: *i,
@@ -466,10 +486,7 @@ fn join_keyholes(
                 }
                 let lo = join_lower(*i, &others);
                 if lo.is_keyhole() || up.is_keyhole() {
-                    Problem::Keyhole {
-                        lower: lo,
-                        upper: up,
-                    }
+                    keyhole_problem(lo, up)
                 } else {
                     p.clone()
                 }
@@ -531,6 +548,7 @@ pub fn keyholed_upper(problems: &[Problem], n: usize) -> Vec<Option<Joined>> {
                 holes: Vec::new(),
                 slits: Vec::new(),
                 also: Vec::new(),
+                as_built: false,
             });
         }
         started[j.contour] = Some(j.clone());
@@ -797,6 +815,7 @@ mod tests {
             holes: vec![2],
             slits: Vec::new(),
             also: Vec::new(),
+            as_built: false,
         };
         let problems = correspond(&lower, &upper, &[Some(other), started[1].clone()]);
         assert!(

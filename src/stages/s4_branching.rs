@@ -225,6 +225,7 @@ fn rejoin(
         holes: Vec::new(),
         slits: Vec::new(),
         also: Vec::new(),
+        as_built: false,
     };
     if holes.is_empty() {
         return Some(plain);
@@ -661,8 +662,14 @@ impl Assembler {
         for (&c, ring) in ids.zip(k.rings) {
             let mut r = self.take(c, section)?;
             // The rings the region below ended on, on the other keyhole of this slice
-            // (`Joined::also`): nothing lies between the two loops.
+            // (`Joined::also`): nothing lies between the two loops, which must share them.
             if r.curves.len() == 1 && !joined.also.is_empty() {
+                if r.curves[0].points != ring {
+                    return Err(Error::Internal(format!(
+                        "slice {}: contour {c}'s two keyhole loops do not share its ring",
+                        section.index
+                    )));
+                }
                 continue;
             }
             // Otherwise correspondence never joins a contour that started from a keyhole
