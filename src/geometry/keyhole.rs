@@ -124,15 +124,10 @@ pub fn slits(
                 && !crosses_walls(a, b, &walls, s)
                 && !made.iter().any(|&(p, q)| segments_intersect(a, b, p, q))
         };
-        // The slit's middle half: its quarter, half and three-quarter points.
-        let middle = |s: &Slit| {
-            let (a, b) = (at(&rings, s.from), at(&rings, s.to));
-            [0.25, 0.5, 0.75].map(|t| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
-        };
         // How far the middle half lies outside the other slice's contours: the least signed
         // distance (negative inside) at those points.
         let clearance = |s: &Slit| {
-            middle(s)
+            middle_half(&rings, s)
                 .iter()
                 .map(|&p| least_signed_distance(&other_slice, p))
                 .fold(f64::INFINITY, f64::min)
@@ -148,8 +143,7 @@ pub fn slits(
                 .as_ref()
                 .is_none_or(|d| d.at(at(&rings, s.from)) <= DEEP_BAY_MM)
         };
-        // Whether the slit's middle half lies clear: `clearance > CLEAR`, without measuring.
-        let clear = |s: &Slit| middle(s).iter().all(|&p| clear_of(&other_slice, p, CLEAR));
+        let clear = |s: &Slit| slit_lies_clear(&rings, s, &other_slice);
         let slit = shortest_clear(&rings, h, step, admissible, clear, clearance, shallow)?;
         made.push((at(&rings, slit.from), at(&rings, slit.to)));
         out.push(slit);
@@ -164,15 +158,24 @@ pub fn lie_clear(rings: &[&[Point]], slits: &[Slit], outside_of: &[&[Point]]) ->
     let other_slice: Vec<BoundaryIndex> =
         outside_of.iter().map(|o| BoundaryIndex::new(o)).collect();
     slits.iter().all(|s| {
-        let (Some(_), Some(_)) = (rings.get(s.from.ring), rings.get(s.to.ring)) else {
-            return false;
-        };
-        let (a, b) = (at(rings, s.from), at(rings, s.to));
-        [0.25, 0.5, 0.75].iter().all(|&t| {
-            let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-            clear_of(&other_slice, p, CLEAR)
-        })
+        rings.get(s.from.ring).is_some()
+            && rings.get(s.to.ring).is_some()
+            && slit_lies_clear(rings, s, &other_slice)
     })
+}
+
+/// A slit's middle half: its quarter, half and three-quarter points.
+fn middle_half(rings: &[&[Point]], s: &Slit) -> [Point; 3] {
+    let (a, b) = (at(rings, s.from), at(rings, s.to));
+    [0.25, 0.5, 0.75].map(|t| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])])
+}
+
+/// Whether the slit's middle half lies clear of `other_slice`: a clearance above [`CLEAR`],
+/// without measuring it.
+fn slit_lies_clear(rings: &[&[Point]], s: &Slit, other_slice: &[BoundaryIndex]) -> bool {
+    middle_half(rings, s)
+        .iter()
+        .all(|&p| clear_of(other_slice, p, CLEAR))
 }
 
 /// Where along `a`–`b` (0 to 1) the point closest to `p` lies.

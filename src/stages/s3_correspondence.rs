@@ -386,11 +386,9 @@ fn rekeyholed(own: &View, k: usize, started: &Joined, others: &[&[Point]]) -> Op
         return None;
     }
     let again = joinable(own, k, &started.holes, others);
-    // The same rings in the same order, so that either loop's feet index both.
-    (again.holes == started.holes
-        && again.slits != started.slits
-        && lie_clear(&rings, &again.slits, others))
-    .then(|| Joined {
+    // The same rings in the same order, so that either loop's feet index both; lying
+    // clear, the slits differ from the started ones.
+    (again.holes == started.holes && lie_clear(&rings, &again.slits, others)).then(|| Joined {
         also: started.slits.clone(),
         ..again
     })

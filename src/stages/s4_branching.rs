@@ -719,6 +719,8 @@ impl Assembler {
         closed: &mut Vec<Region>,
     ) {
         let through = runs_through(ahead, joined.contour);
+        // The loop solved with this transition could not know the next one's slits: it is
+        // built again with their feet.
         let k = match rekeyholed_next(ahead, joined) {
             Some(other) => {
                 let both = Joined {
