@@ -95,8 +95,10 @@ use super::distance_map::{
     bbox_of, mark_label_band, nearest_contours_within, signed_distance, validate_polygons, Grid,
     NearestContours, SeedField,
 };
+use super::marching_squares::iso_loops;
 use super::overlap::{overlap_area, Region};
 use super::polygon::{contains, signed_area, Point};
+use super::simplify::simplify_closed;
 use super::zones::{
     insert_junctions, largest_loop, neg_psi, refine_innermost, simplify_shared, zone_loops, Window,
 };
@@ -183,6 +185,47 @@ pub(crate) fn innermost_point(grid: &Grid, contour: &[Point]) -> Point {
     let best = (0..sd.len()).fold(0, |b, k| if sd[k] < sd[b] { k } else { b });
     let start = grid.point(best / grid.width, best % grid.width);
     refine_innermost(&[contour], start, grid.cell_mm)
+}
+
+/// Pieces of `M_½` besides the largest, in all, that [`halfway_loop`] drops: a fraction of the
+/// largest piece's area.
+const HALFWAY_DROPPED_FRACTION: f64 = 0.1;
+
+/// The intermediate contour of a 1-to-1 link at its mid-plane: the outer boundary of the
+/// largest piece of `M_½ = {d_a + d_b ≤ 0}` (the paper's construction with one contour a
+/// side, so no zones), counter-clockwise, compressed within [`SIMPLIFY_TOL_CELLS`]. Holes of
+/// `M_½` are filled: a fjord of one loop that closes into a hole there shuts at the
+/// mid-plane, and the fjord of the other loop opens above it, rather than one fjord's walls
+/// sweeping round to the other's. `None` if the other pieces of `M_½` together exceed
+/// [`HALFWAY_DROPPED_FRACTION`] of the largest (the loops then need a branching, not a curve
+/// between them), if `M_½` is empty, if the loops are not finite polygons or if the raster
+/// would exceed [`MAX_RASTER_CELLS`]. Both loops are filled whatever their orientation.
+pub fn halfway_loop(a: &[Point], b: &[Point], cell_mm: f64) -> Option<Vec<Point>> {
+    validate_polygons(&[a, b], "halfway loop").ok()?;
+    let grid = Grid::covering(bbox_of(&[a, b]), cell_mm, MARGIN_CELLS, MAX_RASTER_CELLS).ok()?;
+    let (da, db) = (signed_distance(&grid, &[a]), signed_distance(&grid, &[b]));
+    // Inside is `≥ 0` for marching squares: the negated sum.
+    let field: Vec<f32> = da.iter().zip(&db).map(|(x, y)| -(x + y)).collect();
+    let loops = iso_loops(&field, grid.width, grid.height, 0.0);
+    let areas: Vec<f64> = loops.iter().map(|l| signed_area(l)).collect();
+    // The first of the largest: loops come in scan order, so ties are deterministic.
+    let largest = (0..loops.len()).filter(|&k| areas[k] > 0.0).fold(
+        None,
+        |best: Option<usize>, k| match best {
+            Some(b) if areas[b] >= areas[k] => Some(b),
+            _ => Some(k),
+        },
+    )?;
+    let others: f64 = (0..loops.len())
+        .filter(|&k| k != largest && areas[k] > 0.0)
+        .map(|k| areas[k])
+        .sum();
+    if others > HALFWAY_DROPPED_FRACTION * areas[largest] {
+        return None;
+    }
+    let world: Vec<Point> = loops[largest].iter().map(|&p| grid.to_world(p)).collect();
+    let out = simplify_closed(&world, SIMPLIFY_TOL_CELLS * grid.cell_mm);
+    (out.len() >= 3 && signed_area(&out) > 0.0).then_some(out)
 }
 
 /// Positions of the intermediate plane tried when a lower zone meets `M_t` in several pieces
@@ -724,7 +767,53 @@ fn build_at(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::polygon::{circle, is_simple};
+    use crate::geometry::polygon::{circle, dist, is_simple};
+
+    #[test]
+    fn the_halfway_loop_of_two_equal_discs_is_the_ellipse_with_their_centres_as_foci() {
+        // d_a + d_b ≤ 0 ⇔ |p − c_a| + |p − c_b| ≤ 2R.
+        let (ca, cb, rad) = ([1.0, -2.0], [4.0, 2.0], 5.0);
+        let a = circle(ca[0], ca[1], rad, 512, true);
+        let b = circle(cb[0], cb[1], rad, 512, false);
+        let cell = 0.1;
+        let m = halfway_loop(&a, &b, cell).expect("one piece");
+        assert!(signed_area(&m) > 0.0 && is_simple(&m));
+        for p in &m {
+            let sum = dist(*p, ca) + dist(*p, cb);
+            assert!((sum - 2.0 * rad).abs() < cell / 2.0, "{p:?}: {sum}");
+        }
+        // Symmetric in its two loops, whatever their orientation.
+        assert_eq!(halfway_loop(&b, &a, cell), Some(m));
+    }
+
+    /// The ring of radii 4 and 10 round the origin, keyholed by a slit along the x axis from
+    /// its rim to its hole, on the right (`side` 1) or on the left (−1).
+    fn keyholed_ring(side: f64) -> Vec<Point> {
+        let turn = |p: Point| [side * p[0], side * p[1]];
+        let mut ring: Vec<Point> = circle(0.0, 0.0, 10.0, 256, true)
+            .into_iter()
+            .map(turn)
+            .collect();
+        ring.push(turn([4.0, 0.0]));
+        ring.extend(circle(0.0, 0.0, 4.0, 256, false).into_iter().map(turn));
+        ring.push(turn([4.0, 0.0]));
+        ring
+    }
+
+    #[test]
+    fn a_halfway_loop_fills_its_holes_and_is_none_when_the_loops_meet_nowhere() {
+        // Keyholed on opposite sides, M_½ is the ring itself: the slits close (each lies in
+        // the other loop's material) but for a notch a cell deep where they meet the rim; the
+        // hole is filled.
+        let m = halfway_loop(&keyholed_ring(1.0), &keyholed_ring(-1.0), 0.1).expect("one piece");
+        assert!(
+            m.iter().all(|p| (p[0].hypot(p[1]) - 10.0).abs() < 0.15),
+            "{m:?}"
+        );
+        let disc = circle(0.0, 0.0, 10.0, 256, true);
+        let far = circle(40.0, 0.0, 10.0, 256, true);
+        assert_eq!(halfway_loop(&disc, &far, 0.1), None);
+    }
 
     #[test]
     fn concentric_circles_interpolate_to_the_mean_radius() {
