@@ -3,8 +3,10 @@
 //! vector within the tolerance, at chord-length parameters or, where those would fold the
 //! surface between two loops, at warped ones ([`chord_warps`]); where the surface still
 //! crosses itself (or the fence on a cap's ridge loop: [`s7_skinning::Crossings`]), also
-//! with the loops joined by fans ([`fan_tables`]), kept if that crosses less. Regions are
-//! fitted as they arrive, several at once, and leave in arrival order.
+//! with the loops joined by fans ([`fan_tables`]), cut into segments ([`fit_segments`]), and
+//! with a curve halfway between a crossing band's loops ([`with_halfway_curves`]), each kept
+//! if it crosses less. Regions are fitted as they arrive, several at once, and leave in
+//! arrival order.
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -66,6 +68,8 @@ fn fit_judged(region: Region, opts: &FitOptions) -> Result<(FittedRegion, Judged
 /// lobe's drift out of one join puts it into the next (GE head surface 233: 17 loops, a
 /// tongue 40 mm long at its first; 1 318 faces crossing its own surface, against 197 in its
 /// four segments). The segments meet where the loop's own points are, as a long chain's do.
+/// Each surface kept that still crosses itself may then take halfway curves
+/// ([`with_halfway_curves`]).
 pub fn fit_segments(region: Region, opts: &FitOptions) -> Result<Vec<FittedRegion>> {
     Ok(segments_of(region, opts)?
         .into_iter()
