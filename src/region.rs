@@ -33,6 +33,18 @@ pub struct RegionCurve {
     pub origin: CurveOrigin,
 }
 
+impl CurveOrigin {
+    /// The first and last slice the curve comes from.
+    pub fn slices(&self) -> (usize, usize) {
+        match *self {
+            CurveOrigin::Contour { slice, .. }
+            | CurveOrigin::Cap { slice }
+            | CurveOrigin::Keyhole { slice } => (slice, slice),
+            CurveOrigin::Intermediate { below, above } => (below, above),
+        }
+    }
+}
+
 impl RegionCurve {
     pub fn is_point(&self) -> bool {
         self.points.len() == 1
@@ -104,15 +116,20 @@ impl Region {
             .collect()
     }
 
+    /// The plane frame of the region's first loop (all its curves lie in parallel planes);
+    /// `None` if no curve is a loop of some area.
+    pub fn plane_frame(&self) -> Option<SliceFrame> {
+        self.curves
+            .iter()
+            .find(|c| c.points.len() >= 3)
+            .and_then(|c| SliceFrame::of_loop(&c.points))
+    }
+
     /// The seal triangles nearer the plane of the first curve, and the others (all in the
     /// first if the region has no loop to take a plane from): a seal lies in the plane of
     /// the end loops whose slivers it closes.
     fn seal_by_end(&self) -> (Vec<Triangle>, Vec<Triangle>) {
-        let frame = self
-            .curves
-            .iter()
-            .find(|c| c.points.len() >= 3)
-            .and_then(|c| SliceFrame::of_loop(&c.points));
+        let frame = self.plane_frame();
         let (Some(frame), Some(first), Some(end)) = (
             frame,
             self.curves.first().and_then(|c| c.points.first()),

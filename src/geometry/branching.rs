@@ -208,14 +208,11 @@ pub fn halfway_loop(a: &[Point], b: &[Point], cell_mm: f64) -> Option<Vec<Point>
     let field: Vec<f32> = da.iter().zip(&db).map(|(x, y)| -(x + y)).collect();
     let loops = iso_loops(&field, grid.width, grid.height, 0.0);
     let areas: Vec<f64> = loops.iter().map(|l| signed_area(l)).collect();
-    // The first of the largest: loops come in scan order, so ties are deterministic.
-    let largest = (0..loops.len()).filter(|&k| areas[k] > 0.0).fold(
-        None,
-        |best: Option<usize>, k| match best {
-            Some(b) if areas[b] >= areas[k] => Some(b),
-            _ => Some(k),
-        },
-    )?;
+    // The first of the largest (`min_by` keeps the first of equals): loops come in scan
+    // order, so ties are deterministic.
+    let largest = (0..loops.len())
+        .filter(|&k| areas[k] > 0.0)
+        .min_by(|&i, &j| areas[j].total_cmp(&areas[i]))?;
     let others: f64 = (0..loops.len())
         .filter(|&k| k != largest && areas[k] > 0.0)
         .map(|k| areas[k])

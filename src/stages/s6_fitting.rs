@@ -112,19 +112,20 @@ fn segments_of(region: Region, opts: &FitOptions) -> Result<Vec<(FittedRegion, J
         .into_par_iter()
         .map(|r| fit_judged(r, opts))
         .collect();
-    Ok(match segments {
-        Ok(segments)
-            if (segments.iter().all(|s| s.0.fit.met) || !whole.fit.met)
-                && s7_skinning::crossings_of_all(
-                    &segments.iter().map(|s| s.0.clone()).collect::<Vec<_>>(),
-                    opts.tolerance,
-                )
-                .fewer_than(&now) =>
+    let Ok((fits, judged)): Result<(Vec<FittedRegion>, Vec<Judged>)> =
+        segments.map(|s| s.into_iter().unzip())
+    else {
+        return Ok(unsplit(whole, bands));
+    };
+    Ok(
+        if (fits.iter().all(|s| s.fit.met) || !whole.fit.met)
+            && s7_skinning::crossings_of_all(&fits, opts.tolerance).fewer_than(&now)
         {
-            segments
-        }
-        _ => unsplit(whole, bands),
-    })
+            fits.into_iter().zip(judged).collect()
+        } else {
+            unsplit(whole, bands)
+        },
+    )
 }
 
 /// [`fit`] at the given warps, on knots spread as the densest loop's
@@ -304,15 +305,10 @@ fn with_halfway_curves(fitted: FittedRegion, judged: Judged, opts: &FitOptions) 
     if now.total() == 0 {
         return fitted;
     }
-    let Some(frame) = fitted
-        .region
-        .curves
-        .iter()
-        .find(|c| c.points.len() >= 3)
-        .and_then(|c| SliceFrame::of_loop(&c.points))
-    else {
+    let Some(frame) = fitted.region.plane_frame() else {
         return fitted;
     };
+    let loops = loops_in(&fitted.region, &frame);
     let normal = frame.normal();
     let cell = HALFWAY_CELL_TOLERANCES * opts.tolerance;
     let curves = &fitted.region.curves;
@@ -323,13 +319,13 @@ fn with_halfway_curves(fitted: FittedRegion, judged: Judged, opts: &FitOptions) 
         let Some(upper) = curves.get(k + 1) else {
             break;
         };
-        if bands[k] == 0 || lower.points.len() < 3 || upper.points.len() < 3 {
+        let (Some(a), Some(b)) = (&loops[k], &loops[k + 1]) else {
+            continue;
+        };
+        if bands[k] == 0 {
             continue;
         }
-        let plane = |c: &RegionCurve| -> Vec<[f64; 2]> {
-            c.points.iter().map(|&p| frame.to_plane(p)).collect()
-        };
-        let Some(mid) = halfway_loop(&plane(lower), &plane(upper), cell) else {
+        let Some(mid) = halfway_loop(a, b, cell) else {
             continue;
         };
         let rise =
@@ -343,11 +339,7 @@ fn with_halfway_curves(fitted: FittedRegion, judged: Judged, opts: &FitOptions) 
             .collect();
         // The ruling from the lower loop's start to the upper's is the surface's seam: the
         // halfway curve starts where it crosses the mid-plane.
-        let (s, e) = (
-            frame.to_plane(lower.points[0]),
-            frame.to_plane(upper.points[0]),
-        );
-        let seam = [0.5 * (s[0] + e[0]), 0.5 * (s[1] + e[1])];
+        let seam = [0.5 * (a[0][0] + b[0][0]), 0.5 * (a[0][1] + b[0][1])];
         let start = (0..mid.len())
             .min_by(|&i, &j| dist(mid[i], seam).total_cmp(&dist(mid[j], seam)))
             .unwrap_or(0);
@@ -355,8 +347,8 @@ fn with_halfway_curves(fitted: FittedRegion, judged: Judged, opts: &FitOptions) 
         region.curves.push(RegionCurve {
             points,
             origin: CurveOrigin::Intermediate {
-                below: slices_of(lower.origin).0,
-                above: slices_of(upper.origin).1,
+                below: lower.origin.slices().0,
+                above: upper.origin.slices().1,
             },
         });
     }
@@ -387,16 +379,6 @@ fn with_halfway_curves(fitted: FittedRegion, judged: Judged, opts: &FitOptions) 
     }
 }
 
-/// The first and last slice a curve comes from.
-fn slices_of(origin: CurveOrigin) -> (usize, usize) {
-    match origin {
-        CurveOrigin::Contour { slice, .. }
-        | CurveOrigin::Cap { slice }
-        | CurveOrigin::Keyhole { slice } => (slice, slice),
-        CurveOrigin::Intermediate { below, above } => (below, above),
-    }
-}
-
 /// Where the region's loops are parameterised off chord length so that consecutive loops
 /// join where they correspond ([`chord_warps`]), seen in the plane of its first loop (all
 /// its curves lie in parallel planes).
@@ -410,19 +392,18 @@ fn warps(region: &Region) -> Vec<Option<Vec<f64>>> {
 /// The region's loops in the plane of its first loop (all its curves lie in parallel
 /// planes), `None` for a cap point; `None` if no curve is a loop.
 fn plane_loops(region: &Region) -> Option<Vec<Option<Vec<[f64; 2]>>>> {
-    let frame = region
-        .curves
-        .iter()
-        .find(|c| c.points.len() >= 3)
-        .and_then(|c| SliceFrame::of_loop(&c.points))?;
-    let loops = region
+    Some(loops_in(region, &region.plane_frame()?))
+}
+
+/// The region's loops in `frame`'s plane, `None` for a cap point.
+fn loops_in(region: &Region, frame: &SliceFrame) -> Vec<Option<Vec<[f64; 2]>>> {
+    region
         .curves
         .iter()
         .map(|c| {
             (c.points.len() >= 3).then(|| c.points.iter().map(|&p| frame.to_plane(p)).collect())
         })
-        .collect();
-    Some(loops)
+        .collect()
 }
 
 /// Longest gap between fitted points, in tolerances. Compression leaves long straight edges
@@ -452,15 +433,7 @@ pub fn densify(points: &[[f64; 3]], max_gap: f64) -> Vec<[f64; 3]> {
 
 /// "region 7 (outer wall, slices 12–40)": for error messages.
 pub fn describe(region: &Region) -> String {
-    use crate::region::CurveOrigin::*;
-    let slices: Vec<usize> = region
-        .curves
-        .iter()
-        .map(|c| match c.origin {
-            Contour { slice, .. } | Cap { slice } | Keyhole { slice } => slice,
-            Intermediate { below, .. } => below,
-        })
-        .collect();
+    let slices: Vec<usize> = region.curves.iter().map(|c| c.origin.slices().0).collect();
     let (lo, hi) = (
         slices.iter().min().copied().unwrap_or(0),
         slices.iter().max().copied().unwrap_or(0),

@@ -218,10 +218,7 @@ fn cap_fence(lp: &[[f64; 3]], next: &[[f64; 3]]) -> Vec<Triangle> {
 /// `None` if the surface cannot be skinned or its curves have no plane.
 pub fn crossing_bands(fitted: &FittedRegion, tolerance: f64) -> Option<(Vec<usize>, Crossings)> {
     let curves = &fitted.region.curves;
-    let frame = curves
-        .iter()
-        .find(|c| c.points.len() >= 3)
-        .and_then(|c| SliceFrame::of_loop(&c.points))?;
+    let frame = fitted.region.plane_frame()?;
     let normal = frame.normal();
     let height = |p: &[f64; 3]| dot(*p, normal);
     let heights: Vec<f64> = curves
