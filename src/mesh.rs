@@ -634,6 +634,38 @@ pub fn normal(t: &Triangle) -> [f64; 3] {
     cross(&sub(&t[1], &t[0]), &sub(&t[2], &t[0]))
 }
 
+/// A point's bits, to match the points loops share exactly.
+fn bits(p: &P3) -> [u64; 3] {
+    p.map(f64::to_bits)
+}
+
+/// A directed edge by its points' bits.
+type EdgeKey = ([u64; 3], [u64; 3]);
+
+/// The edges of a problem's end loops as their patches use them (a `top` loop's against its
+/// direction), in the loops' order, and the balance of each: its uses minus its reverse's.
+/// Where the loops tile the plane every balance is 0.
+fn directed_edges(
+    ends: &[(&[P3], bool)],
+) -> (std::collections::HashMap<EdgeKey, i64>, Vec<(P3, P3)>) {
+    let mut balance: std::collections::HashMap<_, i64> = Default::default();
+    let mut order: Vec<(P3, P3)> = Vec::new();
+    for (l, top) in ends {
+        let l = dedup_loop(l);
+        if l.len() < 2 {
+            continue;
+        }
+        for i in 0..l.len() {
+            let (a, b) = (l[i], l[(i + 1) % l.len()]);
+            let (a, b) = if *top { (b, a) } else { (a, b) };
+            *balance.entry((bits(&a), bits(&b))).or_default() += 1;
+            *balance.entry((bits(&b), bits(&a))).or_default() -= 1;
+            order.push((a, b));
+        }
+    }
+    (balance, order)
+}
+
 /// Triangles closing what the end loops of one problem leave open on their plane.
 ///
 /// `ends`: every region end of one branching or cap problem, as `(loop, top)`: `top` when it
@@ -648,23 +680,8 @@ pub fn normal(t: &Triangle) -> [f64; 3] {
 pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
     use std::collections::{BTreeMap, HashMap};
     type Key = [u64; 3];
-    let key = |p: &P3| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
-    // Balance of each directed edge: uses minus uses of its reverse.
-    let mut balance: HashMap<(Key, Key), i64> = HashMap::new();
-    let mut order: Vec<(P3, P3)> = Vec::new();
-    for (l, top) in ends {
-        let l = dedup_loop(l);
-        if l.len() < 2 {
-            continue;
-        }
-        for i in 0..l.len() {
-            let (a, b) = (l[i], l[(i + 1) % l.len()]);
-            let (a, b) = if *top { (b, a) } else { (a, b) };
-            *balance.entry((key(&a), key(&b))).or_default() += 1;
-            *balance.entry((key(&b), key(&a))).or_default() -= 1;
-            order.push((a, b));
-        }
-    }
+    let key = bits;
+    let (mut balance, order) = directed_edges(ends);
     // Seal edges: the reverse of every edge with a positive balance, as many times.
     let mut out_edges: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     let mut points: Vec<P3> = Vec::new();
@@ -714,6 +731,186 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
         }
     }
     tris
+}
+
+/// [`seal`] on one problem's end loops, after putting a point where two of their unmatched
+/// edges cross onto both edges; with those points, as `[a, b, x]`: `x` on the edge between
+/// `a` and `b` (in the order of their bits). The mesh puts each into the region's end row
+/// too ([`with_edge_points`]), so the patches and the seal share it; the fitted curves keep
+/// the loops as they were.
+///
+/// Where one loop's edge crosses another's, the plane is covered twice on one side of the
+/// crossing and left open on the other (the distance-map loops of a branching do this where
+/// they meet at a shallow angle): the unmatched edges make a figure of eight, which no
+/// triangles on its own vertices close without overlapping one another or the patches next
+/// to it. Split at the crossing, it is two simple cycles, one each way round.
+pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
+    let crossed = crossing_points(ends);
+    if crossed.is_empty() {
+        return (seal(ends), Vec::new());
+    }
+    // Every crossing; else those on edges crossed once (three edges crossing one another near
+    // a point make a triangle of crossing points that the cycles may wind round twice, and
+    // its edges would be used more than twice); else none, as before the split.
+    let all: Vec<[P3; 3]> = crossed
+        .iter()
+        .flat_map(|(_, e)| e.iter().copied())
+        .collect();
+    let once: Vec<[P3; 3]> = crossed
+        .iter()
+        .filter(|(single, _)| *single)
+        .flat_map(|(_, e)| e.iter().copied())
+        .collect();
+    let tiers = if once.len() == all.len() {
+        vec![all]
+    } else {
+        vec![all, once]
+    };
+    for points in tiers.into_iter().filter(|p| !p.is_empty()) {
+        let split: Vec<Vec<P3>> = ends
+            .iter()
+            .map(|(l, _)| with_edge_points(l, &points))
+            .collect();
+        let split_ends: Vec<(&[P3], bool)> = split
+            .iter()
+            .zip(ends)
+            .map(|(l, (_, top))| (l.as_slice(), *top))
+            .collect();
+        let triangles = seal(&split_ends);
+        if is_manifold(&split_ends, &triangles) {
+            return (triangles, points);
+        }
+    }
+    (seal(ends), Vec::new())
+}
+
+/// Whether the patches of `ends` (each loop edge used once, as [`directed_edges`] gives
+/// them) and the seal `triangles` use every edge exactly once each way: no edge shared by
+/// more than two faces.
+fn is_manifold(ends: &[(&[P3], bool)], triangles: &[Triangle]) -> bool {
+    let mut uses: std::collections::HashMap<EdgeKey, u32> = Default::default();
+    let (_, order) = directed_edges(ends);
+    let edges = order.iter().map(|&(a, b)| (a, b)).chain(
+        triangles
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]),
+    );
+    for (a, b) in edges {
+        *uses.entry((bits(&a), bits(&b))).or_default() += 1;
+    }
+    uses.iter()
+        .all(|(&(a, b), &n)| n == 1 && uses.get(&(b, a)) == Some(&1))
+}
+
+/// The loop `l` with each of `points` (`[a, b, x]`, see [`seal_problem`]) put between `a` and
+/// `b` where they are neighbours in it, either way round, in order along the edge.
+pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
+    if points.is_empty() || l.len() < 2 {
+        return l.to_vec();
+    }
+    let mut on: std::collections::HashMap<EdgeKey, Vec<P3>> = Default::default();
+    for [a, b, x] in points {
+        on.entry((bits(a), bits(b))).or_default().push(*x);
+    }
+    let n = l.len();
+    let mut out = Vec::with_capacity(n + points.len());
+    for i in 0..n {
+        let (a, b) = (l[i], l[(i + 1) % n]);
+        out.push(a);
+        let edge = if bits(&a) <= bits(&b) {
+            (bits(&a), bits(&b))
+        } else {
+            (bits(&b), bits(&a))
+        };
+        if let Some(xs) = on.get(&edge) {
+            let d = sub(&b, &a);
+            let mut along: Vec<(f64, P3)> = xs.iter().map(|x| (dot(&sub(x, &a), &d), *x)).collect();
+            along.sort_by(|u, v| u.0.total_cmp(&v.0).then(bits(&u.1).cmp(&bits(&v.1))));
+            along.dedup_by(|u, v| u.1 == v.1);
+            out.extend(along.into_iter().map(|(_, x)| x));
+        }
+    }
+    out
+}
+
+/// The points where two unmatched edges of the loops (see [`directed_edges`]) cross properly,
+/// by crossing: both edges' `[a, b, x]`, and whether neither edge is crossed elsewhere.
+/// Each point is computed from the two segments in a fixed order of their end points, so
+/// both edges, and every copy of them, get it bit for bit.
+fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<(bool, [[P3; 3]; 2])> {
+    use std::collections::BTreeMap;
+    type Key = [u64; 3];
+    let key = bits;
+    let Some(frame) = ends.iter().find_map(|(l, _)| SliceFrame::of_loop(l)) else {
+        return Vec::new();
+    };
+    let (balance, _) = directed_edges(ends);
+    // Every unmatched edge of positive length: its ends, and in the plane.
+    let mut edges: Vec<([P3; 2], [[f64; 2]; 2])> = Vec::new();
+    for (l, _) in ends {
+        let n = l.len();
+        for i in 0..n {
+            let (a, b) = (l[i], l[(i + 1) % n]);
+            if n > 1 && a != b && balance.get(&(key(&a), key(&b))).is_some_and(|&m| m != 0) {
+                // In the fixed order of their bits.
+                let (a, b) = if key(&a) <= key(&b) { (a, b) } else { (b, a) };
+                edges.push(([a, b], [frame.to_plane(a), frame.to_plane(b)]));
+            }
+        }
+    }
+    edges.sort_by(|x, y| {
+        let low = |e: &[[f64; 2]; 2]| e[0][0].min(e[1][0]);
+        low(&x.1)
+            .total_cmp(&low(&y.1))
+            .then((key(&x.0[0]), key(&x.0[1])).cmp(&(key(&y.0[0]), key(&y.0[1]))))
+    });
+    edges.dedup_by(|x, y| x.0 == y.0);
+    let turn = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    let mut found: Vec<[[P3; 3]; 2]> = Vec::new();
+    for (i, e) in edges.iter().enumerate() {
+        let high = e.1[0][0].max(e.1[1][0]);
+        let (ylo, yhi) = (e.1[0][1].min(e.1[1][1]), e.1[0][1].max(e.1[1][1]));
+        for f in edges[i + 1..]
+            .iter()
+            .take_while(|f| f.1[0][0].min(f.1[1][0]) <= high)
+        {
+            if f.1[0][1].max(f.1[1][1]) < ylo || f.1[0][1].min(f.1[1][1]) > yhi {
+                continue;
+            }
+            let (s, t) = if (key(&e.0[0]), key(&e.0[1])) <= (key(&f.0[0]), key(&f.0[1])) {
+                (e, f)
+            } else {
+                (f, e)
+            };
+            let ([p, q], [p2, q2]) = *s;
+            let ([r, u], [r2, u2]) = *t;
+            let (or, ou) = (turn(p2, q2, r2), turn(p2, q2, u2));
+            let (op, oq) = (turn(r2, u2, p2), turn(r2, u2, q2));
+            // A proper crossing only: touching, shared ends and collinear overlaps are not.
+            if !(or * ou < 0.0 && op * oq < 0.0) {
+                continue;
+            }
+            let along = op / (op - oq);
+            let x: P3 = std::array::from_fn(|d| p[d] + along * (q[d] - p[d]));
+            found.push([[p, q, x], [r, u, x]]);
+        }
+    }
+    // How often each edge is crossed (every copy of it was one edge above).
+    let mut times: BTreeMap<(Key, Key), usize> = BTreeMap::new();
+    for [a, b, _] in found.iter().flatten() {
+        *times.entry((key(a), key(b))).or_default() += 1;
+    }
+    found
+        .into_iter()
+        .map(|pair| {
+            let single = pair
+                .iter()
+                .all(|[a, b, _]| times.get(&(key(a), key(b))) == Some(&1));
+            (single, pair)
+        })
+        .collect()
 }
 
 /// Triangles of a simple closed polygon lying in a plane, in its own orientation: ear clipping

@@ -61,6 +61,10 @@ pub struct Region {
     /// Flat triangles closing slivers that the loops of a branching or cap problem this
     /// region ends at leave uncovered (see [`crate::mesh::seal`]); written with its mesh.
     pub seal: Vec<[[f64; 3]; 3]>,
+    /// Points the seal put on its end loops' edges, as `[a, b, x]`: `x` between `a` and `b`
+    /// where two loops' edges cross (see [`crate::mesh::seal_problem`]). The mesh's end rows
+    /// take them; the fitted curves do not.
+    pub seal_points: Vec<[[f64; 3]; 3]>,
     /// The first curve is the contour where the previous segment of the same chain ended
     /// (a long chain is split, see `RunConfig::max_curves`): its points count there.
     pub joint_below: bool,
@@ -107,6 +111,7 @@ impl Region {
                     if i == last { seal_top.as_slice() } else { &[] },
                 ]
                 .concat(),
+                seal_points: self.seal_points.clone(),
                 joint_below: if i == 0 { self.joint_below } else { true },
                 inserted: [
                     if i == 0 { self.inserted[0] } else { 0 },

@@ -266,6 +266,7 @@ fn fingered_stack() -> Region {
         hole: false,
         curves,
         seal: Vec::new(),
+        seal_points: Vec::new(),
         joint_below: false,
         inserted: [3, 2],
     }

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use bskin::bspline::{fit_common, skin, FitOptions};
-use bskin::mesh::{seal, tessellate, tessellate_each, Triangle};
+use bskin::mesh::{seal, seal_problem, tessellate, tessellate_each, with_edge_points, Triangle};
 
 type P3 = [f64; 3];
 
@@ -171,6 +171,93 @@ fn seal_closes_a_tiling_gap_and_nothing_else() {
         .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
         .sum();
     assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
+}
+
+/// A rectangle below, split in two above, the right piece's side crossing the rectangle's at
+/// (2, 0.5): covered twice below the crossing, open above it. The unmatched edges make a
+/// figure of eight of no net area; split at the crossing they are two triangles, one each way
+/// round, which the patches and the seal close with every edge used once each way.
+#[test]
+fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
+    let below: Vec<P3> = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.0, 1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let l: Vec<P3> = vec![
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let r: Vec<P3> = vec![
+        [1.0, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.2, 0.3, 1.0],
+        [1.8, 0.7, 1.0],
+        [2.0, 1.0, 1.0],
+        [1.0, 1.0, 1.0],
+    ];
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&l, false), (&r, false)];
+    let (tris, points) = seal_problem(&ends);
+    // One crossing, on the rectangle's side and on the piece's.
+    assert_eq!(points.len(), 2, "{points:?}");
+    for [_, _, x] in &points {
+        assert!((x[0] - 2.0).abs() < 1e-12 && (x[1] - 0.5).abs() < 1e-12 && x[2] == 1.0);
+    }
+    // The loops as the patches' end rows take them, each with the crossing point once.
+    let rows: Vec<(Vec<P3>, bool)> = ends
+        .iter()
+        .map(|(lp, top)| (with_edge_points(lp, &points), *top))
+        .collect();
+    assert_eq!(
+        rows.iter().map(|(lp, _)| lp.len()).collect::<Vec<_>>(),
+        [7, 4, 7]
+    );
+    assert_eq!(rows[0].0[3], points[0][2]);
+    // Two triangles, 0.05 each, not overlapping: their areas add up to the lobes'.
+    let areas: Vec<f64> = tris
+        .iter()
+        .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
+        .collect();
+    let total: f64 = areas.iter().map(|a| a.abs()).sum();
+    assert!((total - 0.1).abs() < 1e-12, "{areas:?}");
+    assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0));
+    // Stand-in patches on the rows, each to an apex of its own: closed, and no edge used
+    // twice the same way.
+    let mut all: Vec<Triangle> = tris.clone();
+    for (lp, top) in &rows {
+        let n = lp.len() as f64;
+        let apex = [
+            lp.iter().map(|p| p[0]).sum::<f64>() / n,
+            lp.iter().map(|p| p[1]).sum::<f64>() / n,
+            if *top { 0.0 } else { 2.0 },
+        ];
+        for i in 0..lp.len() {
+            let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
+            all.push(if *top { [b, a, apex] } else { [a, b, apex] });
+        }
+    }
+    assert!(open_edges(&all).is_empty());
+    let mut uses: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
+    for t in &all {
+        for k in 0..3 {
+            *uses.entry((key(&t[k]), key(&t[(k + 1) % 3]))).or_default() += 1;
+        }
+    }
+    assert!(uses.values().all(|&n| n == 1));
+    // Loops that tile the plane get neither triangles nor points.
+    let tile: Vec<P3> = vec![
+        [1.0, 0.0, 1.0],
+        [2.0, 0.0, 1.0],
+        [2.0, 1.0, 1.0],
+        [1.0, 1.0, 1.0],
+    ];
+    let (tris, points) = seal_problem(&[(&below, true), (&l, false), (&tile, false)]);
+    assert!(tris.is_empty() && points.is_empty());
 }
 
 /// A peanut (lobes 19 mm, waist 1 mm from its centre) at z = 0 and z = 4, the second loop

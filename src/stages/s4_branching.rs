@@ -25,7 +25,7 @@ use crate::geometry::keyhole::{join_rings, open_slits, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
 use crate::geometry::polygon::{bbox, contains, signed_area};
-use crate::mesh::seal;
+use crate::mesh::seal_problem;
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
 use crate::{Error, Result};
@@ -696,6 +696,7 @@ impl Assembler {
                 },
             }],
             seal: Vec::new(),
+            seal_points: Vec::new(),
             joint_below: false,
             inserted: [0, 0],
         })
@@ -772,6 +773,7 @@ impl Assembler {
                     },
                 }],
                 seal: Vec::new(),
+                seal_points: Vec::new(),
                 joint_below: false,
                 inserted: [inserted, 0],
             });
@@ -813,6 +815,7 @@ impl Assembler {
                             hole,
                             curves: joint.into_iter().collect(),
                             seal: Vec::new(),
+                            seal_points: Vec::new(),
                             joint_below: true,
                             inserted: [0, 0],
                         };
@@ -873,7 +876,8 @@ impl Assembler {
                                 .map(|(_, c)| (c.as_slice(), false)),
                         )
                         .collect();
-                    let mut seal = Some(seal(&ends));
+                    let (seal, seal_points) = seal_problem(&ends);
+                    let mut seal = Some(seal);
                     let mut lower_keyholes: Vec<Option<Keyhole>> =
                         lower_keyholes.into_iter().map(Some).collect();
                     let mut upper_keyholes: Vec<Option<(Joined, Keyhole)>> =
@@ -889,6 +893,7 @@ impl Assembler {
                         };
                         r.curves.push(RegionCurve { points, origin });
                         r.seal.extend(seal.take().unwrap_or_default());
+                        r.seal_points.extend_from_slice(&seal_points);
                         self.close(r, &mut closed);
                     }
                     for ((&k, points), holes_above) in upper.iter().zip(above).zip(hole_above) {
@@ -897,6 +902,7 @@ impl Assembler {
                             hole: *hole,
                             curves: vec![RegionCurve { points, origin }],
                             seal: seal.take().unwrap_or_default(),
+                            seal_points: seal_points.clone(),
                             joint_below: false,
                             inserted: [0, 0],
                         };
@@ -908,6 +914,7 @@ impl Assembler {
                                 hole: true,
                                 curves: vec![RegionCurve { points, origin }, contour_curve(up, h)],
                                 seal: Vec::new(),
+                                seal_points: seal_points.clone(),
                                 joint_below: false,
                                 inserted: [0, 0],
                             });
@@ -991,13 +998,15 @@ impl Assembler {
                         .collect();
                     let loops: Vec<(&[[f64; 3]], bool)> =
                         lifted.iter().map(|(_, _, c)| (c.as_slice(), top)).collect();
-                    let mut seal = Some(seal(&loops));
+                    let (seal, seal_points) = seal_problem(&loops);
+                    let mut seal = Some(seal);
                     for (k, hole, points) in lifted {
                         let end = RegionCurve { points, origin };
                         if top {
                             let mut r = self.take(k, section)?;
                             r.curves.push(end);
                             r.seal.extend(seal.take().unwrap_or_default());
+                            r.seal_points.extend_from_slice(&seal_points);
                             self.close(r, &mut closed);
                         } else {
                             next[k] = Some(Region {
@@ -1005,6 +1014,7 @@ impl Assembler {
                                 hole,
                                 curves: vec![end, contour_curve(section, k)],
                                 seal: seal.take().unwrap_or_default(),
+                                seal_points: seal_points.clone(),
                                 joint_below: false,
                                 inserted: [0, 0],
                             });

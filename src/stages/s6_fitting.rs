@@ -550,6 +550,7 @@ mod tests {
             hole: false,
             curves,
             seal: Vec::new(),
+            seal_points: Vec::new(),
             joint_below: false,
             inserted: [0, 0],
         }

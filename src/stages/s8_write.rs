@@ -20,7 +20,7 @@ use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
 use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
-use crate::mesh::{tessellate_each, Triangle};
+use crate::mesh::{tessellate_each, with_edge_points, Triangle};
 use crate::region::{CurveOrigin, RegionCurve};
 use crate::{Error, Result};
 
@@ -129,8 +129,14 @@ pub fn run(
         let surface = in_system(s.surface, system)?;
         if meshes.any() {
             let curves = &s.region.curves;
+            // With the points the seal put where two loops' edges cross (the fitted curves
+            // leave them out).
+            let seal_points = &s.region.seal_points;
             let (bottom, top) = match (curves.first(), curves.last()) {
-                (Some(b), Some(t)) => (&b.points, &t.points),
+                (Some(b), Some(t)) => (
+                    with_edge_points(&b.points, seal_points),
+                    with_edge_points(&t.points, seal_points),
+                ),
                 _ => return Err(Error::Internal("region without curves".into())),
             };
             // The end loops and seals are shared with neighbouring surfaces vertex for vertex;
@@ -157,7 +163,7 @@ pub fn run(
                     chunk.clear();
                 }
             };
-            let folds = tessellate_each(&surface, &map(bottom), &map(top), chordal_mm, &mut take);
+            let folds = tessellate_each(&surface, &map(&bottom), &map(&top), chordal_mm, &mut take);
             for t in &s.region.seal {
                 take(t.map(|p| system.from_lps(p)));
             }
