@@ -676,7 +676,8 @@ fn directed_edges(
 /// three loops meet on the phantoms; gaps of up to a few hundred edges on the skull): the
 /// unmatched edges then form closed cycles, each split into simple cycles and closed with flat
 /// triangles (ear clipping) using its edges in the opposite direction. Deterministic: cycles
-/// are walked in the order of the loops' points.
+/// are walked in the order of the loops' points. Where two loops' edges cross, the cycle is
+/// a figure of eight that only [`seal_problem`] closes without overlaps.
 pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
     use std::collections::{BTreeMap, HashMap};
     type Key = [u64; 3];
