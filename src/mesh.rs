@@ -746,28 +746,13 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
 /// triangles on its own vertices close without overlapping one another or the patches next
 /// to it. Split at the crossing, it is two simple cycles, one each way round.
 pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
-    let crossed = crossing_points(ends);
-    if crossed.is_empty() {
-        return (seal(ends), Vec::new());
-    }
-    // Every crossing; else those on edges crossed once (three edges crossing one another near
-    // a point make a triangle of crossing points that the cycles may wind round twice, and
-    // its edges would be used more than twice); else none, as before the split.
-    let all: Vec<[P3; 3]> = crossed
-        .iter()
-        .flat_map(|(_, e)| e.iter().copied())
-        .collect();
-    let once: Vec<[P3; 3]> = crossed
-        .iter()
-        .filter(|(single, _)| *single)
-        .flat_map(|(_, e)| e.iter().copied())
-        .collect();
-    let tiers = if once.len() == all.len() {
-        vec![all]
-    } else {
-        vec![all, once]
-    };
-    for points in tiers.into_iter().filter(|p| !p.is_empty()) {
+    let mut crossings = crossing_points(ends);
+    // Every crossing first. Three edges crossing one another near a point can make a small
+    // triangle that the cycles wind round twice, its edges then used more than twice: the
+    // crossings at such edges' ends are dropped and the rest split again, until every edge
+    // is used once each way; if none is left to drop, the loops are sealed unsplit.
+    while !crossings.is_empty() {
+        let points: Vec<[P3; 3]> = crossings.iter().flatten().copied().collect();
         let split: Vec<Vec<P3>> = ends
             .iter()
             .map(|(l, _)| with_edge_points(l, &points))
@@ -778,20 +763,29 @@ pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
             .map(|(l, (_, top))| (l.as_slice(), *top))
             .collect();
         let triangles = seal(&split_ends);
-        if is_manifold(&split_ends, &triangles) {
+        let overused = overused_ends(&split_ends, &triangles);
+        if overused.is_empty() {
             return (triangles, points);
+        }
+        let before = crossings.len();
+        crossings.retain(|[[_, _, x], _]| !overused.contains(&bits(x)));
+        if crossings.len() == before {
+            break;
         }
     }
     (seal(ends), Vec::new())
 }
 
-/// Whether the patches of `ends` (each loop edge used once, as [`directed_edges`] gives
-/// them) and the seal `triangles` use every edge exactly once each way: no edge shared by
-/// more than two faces.
-fn is_manifold(ends: &[(&[P3], bool)], triangles: &[Triangle]) -> bool {
+/// The end points of the edges that the patches of `ends` (each loop edge once, as
+/// [`directed_edges`] gives them) and the seal `triangles` do not use exactly once each way:
+/// none where no edge is shared by more than two faces.
+fn overused_ends(
+    ends: &[(&[P3], bool)],
+    triangles: &[Triangle],
+) -> std::collections::BTreeSet<[u64; 3]> {
     let mut uses: std::collections::HashMap<EdgeKey, u32> = Default::default();
     let (_, order) = directed_edges(ends);
-    let edges = order.iter().map(|&(a, b)| (a, b)).chain(
+    let edges = order.iter().copied().chain(
         triangles
             .iter()
             .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]),
@@ -800,7 +794,9 @@ fn is_manifold(ends: &[(&[P3], bool)], triangles: &[Triangle]) -> bool {
         *uses.entry((bits(&a), bits(&b))).or_default() += 1;
     }
     uses.iter()
-        .all(|(&(a, b), &n)| n == 1 && uses.get(&(b, a)) == Some(&1))
+        .filter(|(&(a, b), &n)| n != 1 || uses.get(&(b, a)) != Some(&1))
+        .flat_map(|(&(a, b), _)| [a, b])
+        .collect()
 }
 
 /// The loop `l` with each of `points` (`[a, b, x]`, see [`seal_problem`]) put between `a` and
@@ -835,12 +831,10 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
 }
 
 /// The points where two unmatched edges of the loops (see [`directed_edges`]) cross properly,
-/// by crossing: both edges' `[a, b, x]`, and whether neither edge is crossed elsewhere.
-/// Each point is computed from the two segments in a fixed order of their end points, so
-/// both edges, and every copy of them, get it bit for bit.
-fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<(bool, [[P3; 3]; 2])> {
-    use std::collections::BTreeMap;
-    type Key = [u64; 3];
+/// by crossing: both edges' `[a, b, x]`. Each point is computed from the two segments in a
+/// fixed order of their end points, so both edges, and every copy of them, get it bit for
+/// bit.
+fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<[[P3; 3]; 2]> {
     let key = bits;
     let Some(frame) = ends.iter().find_map(|(l, _)| SliceFrame::of_loop(l)) else {
         return Vec::new();
@@ -898,20 +892,7 @@ fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<(bool, [[P3; 3]; 2])> {
             found.push([[p, q, x], [r, u, x]]);
         }
     }
-    // How often each edge is crossed (every copy of it was one edge above).
-    let mut times: BTreeMap<(Key, Key), usize> = BTreeMap::new();
-    for [a, b, _] in found.iter().flatten() {
-        *times.entry((key(a), key(b))).or_default() += 1;
-    }
     found
-        .into_iter()
-        .map(|pair| {
-            let single = pair
-                .iter()
-                .all(|[a, b, _]| times.get(&(key(a), key(b))) == Some(&1));
-            (single, pair)
-        })
-        .collect()
 }
 
 /// Triangles of a simple closed polygon lying in a plane, in its own orientation: ear clipping
