@@ -156,21 +156,39 @@ fn seal_closes_a_tiling_gap_and_nothing_else() {
     let ends: Vec<(&[P3], bool)> = vec![(&below2, true), (&l, false), (&r2, false)];
     let s = seal(&ends);
     assert_eq!(s.len(), 2);
-    let mut all: Vec<Triangle> = s.clone();
-    // Stand-in patches: each end loop's edges as the patch uses them, closed by an apex.
-    for (lp, top) in &ends {
-        let apex = [0.5, 0.5, if *top { 0.0 } else { 2.0 }];
+    let all: Vec<Triangle> = s.iter().copied().chain(stand_in_patches(&ends)).collect();
+    assert!(open_edges(&all).is_empty());
+    let area: f64 = s.iter().map(flat_area).sum();
+    assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
+}
+
+/// Stand-in patches for the end loops of a seal test: each loop's edges as its patch uses
+/// them (a `top` loop's against its direction), closed by an apex of its own off the plane.
+fn stand_in_patches(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
+    let mut out = Vec::new();
+    for (lp, top) in ends {
+        let n = lp.len() as f64;
+        let apex = [
+            lp.iter().map(|p| p[0]).sum::<f64>() / n,
+            lp.iter().map(|p| p[1]).sum::<f64>() / n,
+            if *top { 0.0 } else { 2.0 },
+        ];
         for i in 0..lp.len() {
             let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
-            all.push(if *top { [b, a, apex] } else { [a, b, apex] });
+            out.push(if *top { [b, a, apex] } else { [a, b, apex] });
         }
     }
-    assert!(open_edges(&all).is_empty());
-    let area: f64 = s
-        .iter()
-        .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
-        .sum();
-    assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
+    out
+}
+
+/// Points in the plane z = 1.
+fn at_height_1(xy: &[[f64; 2]]) -> Vec<P3> {
+    xy.iter().map(|&[x, y]| [x, y, 1.0]).collect()
+}
+
+/// The signed area of a triangle in a plane z = const, counter-clockwise positive.
+fn flat_area([p, q, r]: &Triangle) -> f64 {
+    0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
 }
 
 /// A rectangle below, split in two above, the right piece's side crossing the rectangle's at
@@ -179,28 +197,16 @@ fn seal_closes_a_tiling_gap_and_nothing_else() {
 /// round, which the patches and the seal close with every edge used once each way.
 #[test]
 fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
-    let below: Vec<P3> = vec![
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 1.0],
-        [2.0, 0.0, 1.0],
-        [2.0, 1.0, 1.0],
-        [1.0, 1.0, 1.0],
-        [0.0, 1.0, 1.0],
-    ];
-    let l: Vec<P3> = vec![
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 1.0],
-        [1.0, 1.0, 1.0],
-        [0.0, 1.0, 1.0],
-    ];
-    let r: Vec<P3> = vec![
-        [1.0, 0.0, 1.0],
-        [2.0, 0.0, 1.0],
-        [2.2, 0.3, 1.0],
-        [1.8, 0.7, 1.0],
-        [2.0, 1.0, 1.0],
-        [1.0, 1.0, 1.0],
-    ];
+    let below = at_height_1(&[[0., 0.], [1., 0.], [2., 0.], [2., 1.], [1., 1.], [0., 1.]]);
+    let l = at_height_1(&[[0., 0.], [1., 0.], [1., 1.], [0., 1.]]);
+    let r = at_height_1(&[
+        [1., 0.],
+        [2., 0.],
+        [2.2, 0.3],
+        [1.8, 0.7],
+        [2., 1.],
+        [1., 1.],
+    ]);
     let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&l, false), (&r, false)];
     let (tris, points) = seal_problem(&ends);
     // One crossing, on the rectangle's side and on the piece's.
@@ -219,28 +225,17 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     );
     assert_eq!(rows[0].0[3], points[0][2]);
     // Two triangles, 0.05 each, not overlapping: their areas add up to the lobes'.
-    let areas: Vec<f64> = tris
-        .iter()
-        .map(|[p, q, r]| 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])))
-        .collect();
+    let areas: Vec<f64> = tris.iter().map(flat_area).collect();
     let total: f64 = areas.iter().map(|a| a.abs()).sum();
     assert!((total - 0.1).abs() < 1e-12, "{areas:?}");
     assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0));
-    // Stand-in patches on the rows, each to an apex of its own: closed, and no edge used
-    // twice the same way.
-    let mut all: Vec<Triangle> = tris.clone();
-    for (lp, top) in &rows {
-        let n = lp.len() as f64;
-        let apex = [
-            lp.iter().map(|p| p[0]).sum::<f64>() / n,
-            lp.iter().map(|p| p[1]).sum::<f64>() / n,
-            if *top { 0.0 } else { 2.0 },
-        ];
-        for i in 0..lp.len() {
-            let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
-            all.push(if *top { [b, a, apex] } else { [a, b, apex] });
-        }
-    }
+    // With stand-in patches on the rows: closed, and no edge used twice the same way.
+    let rows: Vec<(&[P3], bool)> = rows.iter().map(|(lp, top)| (lp.as_slice(), *top)).collect();
+    let all: Vec<Triangle> = tris
+        .iter()
+        .copied()
+        .chain(stand_in_patches(&rows))
+        .collect();
     assert!(open_edges(&all).is_empty());
     let mut uses: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
     for t in &all {
@@ -250,12 +245,7 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     }
     assert!(uses.values().all(|&n| n == 1));
     // Loops that tile the plane get neither triangles nor points.
-    let tile: Vec<P3> = vec![
-        [1.0, 0.0, 1.0],
-        [2.0, 0.0, 1.0],
-        [2.0, 1.0, 1.0],
-        [1.0, 1.0, 1.0],
-    ];
+    let tile = at_height_1(&[[1., 0.], [2., 0.], [2., 1.], [1., 1.]]);
     let (tris, points) = seal_problem(&[(&below, true), (&l, false), (&tile, false)]);
     assert!(tris.is_empty() && points.is_empty());
 }
