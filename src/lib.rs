@@ -11,6 +11,10 @@
 //!   kernel. [`pipeline`] wires them with bounded channels, in one place.
 //! - [`io`]: the formats we read and write (contour NDJSON, reports).
 
+// The API docs are for developers, read with private items (`cargo doc --document-private-items`),
+// so public items may point to the private helpers that explain them.
+#![allow(rustdoc::private_intra_doc_links)]
+
 pub mod bspline;
 pub mod config;
 pub mod dicom;

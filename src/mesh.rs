@@ -498,7 +498,7 @@ fn zip_end_all(us: &[f64], end: &End, row: &[P3], top: bool, push: &mut impl FnM
 struct Arc<'a> {
     us: &'a [f64],
     period: f64,
-    /// cum[k]: from sample 0 to sample k; cum[n]: round the whole loop.
+    /// `cum[k]`: from sample 0 to sample k; `cum[n]`: round the whole loop.
     cum: Vec<f64>,
 }
 

@@ -25,7 +25,7 @@ const PIVOT_EPS: f64 = 1e-13;
 
 #[derive(Debug, Clone)]
 enum Storage {
-    /// band[i][d] = A[i][(i+d) mod N], d = 0..=3.
+    /// `band[i][d] = A[i][(i+d) mod N]`, `d = 0..=3`.
     Band(Vec<[f64; W + 1]>),
     /// Row-major N×N.
     Dense(Vec<f64>),

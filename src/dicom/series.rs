@@ -1,6 +1,6 @@
 //! Series: grouping files, sorting slices in space, and checking the geometry.
 //!
-//! In: the headers of image files (from [`super::scan`]). Out: [`Series`], each with its slices
+//! In: the headers of image files (from [`super::scan`](mod@super::scan)). Out: [`Series`], each with its slices
 //! sorted by height along the normal, `problems` (warnings: tilt, uneven spacing, gaps,
 //! duplicates, missing UIDs) and `errors` (reasons the series cannot be processed, each naming a
 //! file). [`select_series`] picks the one series to process and refuses a series with errors.

@@ -57,7 +57,7 @@ impl Default for WriteOptions {
 }
 
 impl WriteOptions {
-    /// Options for a phantom: description "bskin phantom <shape>", the phantom's seed.
+    /// Options for a phantom: description `"bskin phantom <shape>"`, the phantom's seed.
     pub fn for_phantom(spec: &crate::phantom::PhantomSpec) -> Self {
         WriteOptions {
             seed: spec.seed,

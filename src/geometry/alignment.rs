@@ -136,7 +136,7 @@ fn best_shift<const D: usize>(
 struct Loop<'a, const D: usize> {
     points: &'a [[f64; D]],
     start: usize,
-    /// cum[i]: arc length from the start to its i-th point; cum[n]: the whole length.
+    /// `cum[i]`: arc length from the start to its i-th point; `cum[n]`: the whole length.
     cum: Vec<f64>,
 }
 
