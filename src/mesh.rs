@@ -642,12 +642,23 @@ fn bits(p: &P3) -> [u64; 3] {
 /// A directed edge by its points' bits.
 type EdgeKey = ([u64; 3], [u64; 3]);
 
+/// The edge between `a` and `b` either way round, its points in the order of their bits.
+fn undirected(a: P3, b: P3) -> (P3, P3) {
+    if bits(&a) <= bits(&b) {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// A problem's directed edges (see [`directed_edges`]): the balance of each, and all of them
+/// in the loops' order.
+type DirectedEdges = (std::collections::HashMap<EdgeKey, i64>, Vec<(P3, P3)>);
+
 /// The edges of a problem's end loops as their patches use them (a `top` loop's against its
 /// direction), in the loops' order, and the balance of each: its uses minus its reverse's.
 /// Where the loops tile the plane every balance is 0.
-fn directed_edges(
-    ends: &[(&[P3], bool)],
-) -> (std::collections::HashMap<EdgeKey, i64>, Vec<(P3, P3)>) {
+fn directed_edges(ends: &[(&[P3], bool)]) -> DirectedEdges {
     let mut balance: std::collections::HashMap<_, i64> = Default::default();
     let mut order: Vec<(P3, P3)> = Vec::new();
     for (l, top) in ends {
@@ -679,10 +690,14 @@ fn directed_edges(
 /// are walked in the order of the loops' points. Where two loops' edges cross, the cycle is
 /// a figure of eight that only [`seal_problem`] closes without overlaps.
 pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
+    seal_edges(directed_edges(ends))
+}
+
+/// [`seal`] from the loops' directed edges.
+fn seal_edges((mut balance, order): DirectedEdges) -> Vec<Triangle> {
     use std::collections::{BTreeMap, HashMap};
     type Key = [u64; 3];
     let key = bits;
-    let (mut balance, order) = directed_edges(ends);
     // Seal edges: the reverse of every edge with a positive balance, as many times.
     let mut out_edges: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     let mut points: Vec<P3> = Vec::new();
@@ -746,7 +761,8 @@ pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
 /// triangles on its own vertices close without overlapping one another or the patches next
 /// to it. Split at the crossing, it is two simple cycles, one each way round.
 pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
-    let mut crossings = crossing_points(ends);
+    let edges = directed_edges(ends);
+    let mut crossings = crossing_points(ends, &edges.0);
     // Every crossing first. Three edges crossing one another near a point can make a small
     // triangle that the cycles wind round twice, its edges then used more than twice: the
     // crossings at such edges' ends are dropped and the rest split again, until every edge
@@ -762,8 +778,10 @@ pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
             .zip(ends)
             .map(|(l, (_, top))| (l.as_slice(), *top))
             .collect();
-        let triangles = seal(&split_ends);
-        let overused = overused_ends(&split_ends, &triangles);
+        let split_edges = directed_edges(&split_ends);
+        let order = split_edges.1.clone();
+        let triangles = seal_edges(split_edges);
+        let overused = overused_ends(&order, &triangles);
         if overused.is_empty() {
             return (triangles, points);
         }
@@ -773,18 +791,17 @@ pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
             break;
         }
     }
-    (seal(ends), Vec::new())
+    (seal_edges(edges), Vec::new())
 }
 
-/// The end points of the edges that the patches of `ends` (each loop edge once, as
-/// [`directed_edges`] gives them) and the seal `triangles` do not use exactly once each way:
-/// none where no edge is shared by more than two faces.
+/// The end points of the edges that the patches (each loop edge once, in `order` from
+/// [`directed_edges`]) and the seal `triangles` do not use exactly once each way: none where
+/// no edge is shared by more than two faces.
 fn overused_ends(
-    ends: &[(&[P3], bool)],
+    order: &[(P3, P3)],
     triangles: &[Triangle],
 ) -> std::collections::BTreeSet<[u64; 3]> {
     let mut uses: std::collections::HashMap<EdgeKey, u32> = Default::default();
-    let (_, order) = directed_edges(ends);
     let edges = order.iter().copied().chain(
         triangles
             .iter()
@@ -814,12 +831,8 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
     for i in 0..n {
         let (a, b) = (l[i], l[(i + 1) % n]);
         out.push(a);
-        let edge = if bits(&a) <= bits(&b) {
-            (bits(&a), bits(&b))
-        } else {
-            (bits(&b), bits(&a))
-        };
-        if let Some(xs) = on.get(&edge) {
+        let (lo, hi) = undirected(a, b);
+        if let Some(xs) = on.get(&(bits(&lo), bits(&hi))) {
             let d = sub(&b, &a);
             let mut along: Vec<(f64, P3)> = xs.iter().map(|x| (dot(&sub(x, &a), &d), *x)).collect();
             along.sort_by(|u, v| u.0.total_cmp(&v.0).then(bits(&u.1).cmp(&bits(&v.1))));
@@ -830,16 +843,18 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
     out
 }
 
-/// The points where two unmatched edges of the loops (see [`directed_edges`]) cross properly,
+/// The points where two unmatched edges of the loops (`balance` from [`directed_edges`]) cross properly,
 /// by crossing: both edges' `[a, b, x]`. Each point is computed from the two segments in a
 /// fixed order of their end points, so both edges, and every copy of them, get it bit for
 /// bit.
-fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<[[P3; 3]; 2]> {
+fn crossing_points(
+    ends: &[(&[P3], bool)],
+    balance: &std::collections::HashMap<EdgeKey, i64>,
+) -> Vec<[[P3; 3]; 2]> {
     let key = bits;
     let Some(frame) = ends.iter().find_map(|(l, _)| SliceFrame::of_loop(l)) else {
         return Vec::new();
     };
-    let (balance, _) = directed_edges(ends);
     // Every unmatched edge of positive length: its ends, and in the plane.
     let mut edges: Vec<([P3; 2], [[f64; 2]; 2])> = Vec::new();
     for (l, _) in ends {
@@ -848,7 +863,7 @@ fn crossing_points(ends: &[(&[P3], bool)]) -> Vec<[[P3; 3]; 2]> {
             let (a, b) = (l[i], l[(i + 1) % n]);
             if n > 1 && a != b && balance.get(&(key(&a), key(&b))).is_some_and(|&m| m != 0) {
                 // In the fixed order of their bits.
-                let (a, b) = if key(&a) <= key(&b) { (a, b) } else { (b, a) };
+                let (a, b) = undirected(a, b);
                 edges.push(([a, b], [frame.to_plane(a), frame.to_plane(b)]));
             }
         }
