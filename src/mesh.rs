@@ -910,9 +910,12 @@ fn crossing_points(
     found
 }
 
+/// Least sine of an ear's corner angle that [`triangulate`] clips while it has such ears.
+const MIN_EAR_SINE: f64 = 1e-9;
+
 /// Triangles of a simple closed polygon lying in a plane, in its own orientation: ear clipping
-/// in the plane of its Newell normal; where no proper ear is left (collinear points: a
-/// T-junction's zero-area sliver), the most convex corner goes.
+/// in the plane of its Newell normal, ears with a corner angle first; where no proper ear is
+/// left (collinear points: a T-junction's zero-area sliver), the most convex corner goes.
 fn triangulate(poly: &[P3]) -> Vec<Triangle> {
     let n = poly.len();
     let mut out = Vec::with_capacity(n.saturating_sub(2));
@@ -963,15 +966,27 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
                             && turn(q[c], q[a], q[j]) >= 0.0)
                 })
         };
-        let k = (0..m).find(|&k| is_ear(k)).unwrap_or_else(|| {
-            (0..m)
-                .max_by(|&x, &y| {
-                    let (a, b, c) = corner(x);
-                    let (d, e, f) = corner(y);
-                    turn(q[a], q[b], q[c]).total_cmp(&turn(q[d], q[e], q[f]))
-                })
-                .unwrap_or(0)
-        });
+        // An ear with a corner of no angle (three points of a straight run of edges) would
+        // be a triangle without area, which an STL file's rounding can turn over: such ears
+        // go only when no other is left.
+        let sharp = |k: usize| {
+            let (a, b, c) = corner(k);
+            let len = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).hypot(u[1] - v[1]);
+            let (ab, bc) = (len(q[a], q[b]), len(q[b], q[c]));
+            turn(q[a], q[b], q[c]) > MIN_EAR_SINE * ab * bc
+        };
+        let k = (0..m)
+            .find(|&k| sharp(k) && is_ear(k))
+            .or_else(|| (0..m).find(|&k| is_ear(k)))
+            .unwrap_or_else(|| {
+                (0..m)
+                    .max_by(|&x, &y| {
+                        let (a, b, c) = corner(x);
+                        let (d, e, f) = corner(y);
+                        turn(q[a], q[b], q[c]).total_cmp(&turn(q[d], q[e], q[f]))
+                    })
+                    .unwrap_or(0)
+            });
         let (a, b, c) = corner(k);
         out.push([poly[a], poly[b], poly[c]]);
         idx.remove(k);

@@ -250,6 +250,39 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     assert!(tris.is_empty() && points.is_empty());
 }
 
+/// A lower loop whose side is a straight run of 41 points on a slanted line (their
+/// rounding bends it by 10⁻¹⁶ mm either way), and an upper loop bowed 0.05 mm out beyond
+/// that side. The seal fans the run from the bow's apex: no triangle is without area (ear
+/// clipping's first ears along the run were: three points of the run each, which an STL
+/// file's float32 rounding turns over), and the triangles cover the gap once.
+#[test]
+fn seal_fans_a_straight_run_rather_than_clip_it() {
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    let at = |along: f64, out: f64| -> P3 { [along * c + out * s, along * s - out * c, 1.0] };
+    let run: Vec<P3> = (0..=40).map(|k| at(0.05 * k as f64, 0.0)).collect();
+    let lower: Vec<P3> = run
+        .iter()
+        .copied()
+        .chain([at(2.0, -1.0), at(0.0, -1.0)])
+        .collect();
+    let upper: Vec<P3> = vec![run[0], at(1.0, 0.05), run[40], at(2.0, -1.0), at(0.0, -1.0)];
+    let ends: Vec<(&[P3], bool)> = vec![(&lower, true), (&upper, false)];
+    let tris = seal(&ends);
+    assert_eq!(tris.len(), 40);
+    let areas: Vec<f64> = tris.iter().map(flat_area).collect();
+    let least = areas.iter().map(|a| a.abs()).fold(f64::INFINITY, f64::min);
+    assert!(least > 1e-4, "a sliver of {least} mm²");
+    let total: f64 = areas.iter().sum();
+    let sum_abs: f64 = areas.iter().map(|a| a.abs()).sum();
+    assert!((total.abs() - 0.05).abs() < 1e-12 && (sum_abs - 0.05).abs() < 1e-12);
+    let all: Vec<Triangle> = tris
+        .iter()
+        .copied()
+        .chain(stand_in_patches(&ends))
+        .collect();
+    assert!(open_edges(&all).is_empty());
+}
+
 /// A peanut (lobes 19 mm, waist 1 mm from its centre) at z = 0 and z = 4, the second loop
 /// listed from `shift` of its 200 points later. A quarter turn joins each lobe to the waist,
 /// and the rows half-way cross themselves (the blends of the loops' points of equal
