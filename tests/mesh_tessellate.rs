@@ -156,8 +156,7 @@ fn seal_closes_a_tiling_gap_and_nothing_else() {
     let ends: Vec<(&[P3], bool)> = vec![(&below2, true), (&l, false), (&r2, false)];
     let s = seal(&ends);
     assert_eq!(s.len(), 2);
-    let all: Vec<Triangle> = s.iter().copied().chain(stand_in_patches(&ends)).collect();
-    assert!(open_edges(&all).is_empty());
+    assert!(open_edges(&with_stand_in_patches(&s, &ends)).is_empty());
     let area: f64 = s.iter().map(flat_area).sum();
     assert!((area.abs() - 0.1).abs() < 1e-12, "sliver area {area}");
 }
@@ -179,6 +178,11 @@ fn stand_in_patches(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
         }
     }
     out
+}
+
+/// `seal` and the stand-in patches of `ends` (see [`stand_in_patches`]).
+fn with_stand_in_patches(seal: &[Triangle], ends: &[(&[P3], bool)]) -> Vec<Triangle> {
+    seal.iter().copied().chain(stand_in_patches(ends)).collect()
 }
 
 /// Points in the plane z = 1.
@@ -231,11 +235,7 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0));
     // With stand-in patches on the rows: closed, and no edge used twice the same way.
     let rows: Vec<(&[P3], bool)> = rows.iter().map(|(lp, top)| (lp.as_slice(), *top)).collect();
-    let all: Vec<Triangle> = tris
-        .iter()
-        .copied()
-        .chain(stand_in_patches(&rows))
-        .collect();
+    let all = with_stand_in_patches(&tris, &rows);
     assert!(open_edges(&all).is_empty());
     let mut uses: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
     for t in &all {
@@ -275,12 +275,7 @@ fn seal_fans_a_straight_run_rather_than_clip_it() {
     let total: f64 = areas.iter().sum();
     let sum_abs: f64 = areas.iter().map(|a| a.abs()).sum();
     assert!((total.abs() - 0.05).abs() < 1e-12 && (sum_abs - 0.05).abs() < 1e-12);
-    let all: Vec<Triangle> = tris
-        .iter()
-        .copied()
-        .chain(stand_in_patches(&ends))
-        .collect();
-    assert!(open_edges(&all).is_empty());
+    assert!(open_edges(&with_stand_in_patches(&tris, &ends)).is_empty());
 }
 
 /// A peanut (lobes 19 mm, waist 1 mm from its centre) at z = 0 and z = 4, the second loop
