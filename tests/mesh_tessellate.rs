@@ -185,6 +185,37 @@ fn with_stand_in_patches(seal: &[Triangle], ends: &[(&[P3], bool)]) -> Vec<Trian
     seal.iter().copied().chain(stand_in_patches(ends)).collect()
 }
 
+/// Whether no directed edge of `tris` is used more than once (with no open edges: every
+/// edge once each way).
+fn each_edge_once_each_way(tris: &[Triangle]) -> bool {
+    let mut uses: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            *uses.entry((key(&t[k]), key(&t[(k + 1) % 3]))).or_default() += 1;
+        }
+    }
+    uses.values().all(|&n| n == 1)
+}
+
+/// `seal` and the stand-in patches of `ends` with `points` put into them, as the mesh's end
+/// rows take them (see [`with_edge_points`]).
+fn with_patches_on_rows(
+    seal: &[Triangle],
+    ends: &[(&[P3], bool)],
+    points: &[[P3; 3]],
+) -> Vec<Triangle> {
+    let rows: Vec<Vec<P3>> = ends
+        .iter()
+        .map(|(lp, _)| with_edge_points(lp, points))
+        .collect();
+    let rows: Vec<(&[P3], bool)> = rows
+        .iter()
+        .zip(ends)
+        .map(|(lp, e)| (lp.as_slice(), e.1))
+        .collect();
+    with_stand_in_patches(seal, &rows)
+}
+
 /// Points in the plane z = 1.
 fn at_height_1(xy: &[[f64; 2]]) -> Vec<P3> {
     xy.iter().map(|&[x, y]| [x, y, 1.0]).collect()
@@ -234,20 +265,36 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     assert!((total - 0.1).abs() < 1e-12, "{areas:?}");
     assert!(areas.iter().any(|&a| a > 0.0) && areas.iter().any(|&a| a < 0.0));
     // With stand-in patches on the rows: closed, and no edge used twice the same way.
-    let rows: Vec<(&[P3], bool)> = rows.iter().map(|(lp, top)| (lp.as_slice(), *top)).collect();
-    let all = with_stand_in_patches(&tris, &rows);
+    let all = with_patches_on_rows(&tris, &ends, &points);
     assert!(open_edges(&all).is_empty());
-    let mut uses: HashMap<([u64; 3], [u64; 3]), usize> = HashMap::new();
-    for t in &all {
-        for k in 0..3 {
-            *uses.entry((key(&t[k]), key(&t[(k + 1) % 3]))).or_default() += 1;
-        }
-    }
-    assert!(uses.values().all(|&n| n == 1));
+    assert!(each_edge_once_each_way(&all));
     // Loops that tile the plane get neither triangles nor points.
     let tile = at_height_1(&[[1., 0.], [2., 0.], [2., 1.], [1., 1.]]);
     let (tris, points) = seal_problem(&[(&below, true), (&l, false), (&tile, false)]);
     assert!(tris.is_empty() && points.is_empty());
+}
+
+/// Two pieces above a square, each bulging past its bottom side, where they overlap: the
+/// plane there is covered twice above and not at all below. Split at every crossing, the
+/// seal winds round that patch of plane twice and uses its edges twice the same way;
+/// `seal_problem` drops the crossings at those edges' ends and splits the rest, and what it
+/// returns closes with the patches, every edge used once each way (split at all six
+/// crossings, it did not: checked).
+#[test]
+fn seal_problem_drops_the_crossings_that_would_use_an_edge_twice() {
+    let below = at_height_1(&[[0., 0.], [2., 0.], [2., 2.], [1.1, 2.], [0.9, 2.], [0., 2.]]);
+    let left = at_height_1(&[[0., 0.], [1.3, -0.3], [0.9, 2.], [0., 2.]]);
+    let right = at_height_1(&[[0.7, -0.3], [2., 0.], [2., 2.], [1.1, 2.]]);
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+    let (tris, points) = seal_problem(&ends);
+    // Of the six crossings, only the pieces' sides crossing inside the square is kept.
+    assert_eq!(points.len(), 2, "{points:?}");
+    for [_, _, x] in &points {
+        assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] - 1.425).abs() < 1e-12);
+    }
+    let all = with_patches_on_rows(&tris, &ends, &points);
+    assert!(open_edges(&all).is_empty());
+    assert!(each_edge_once_each_way(&all));
 }
 
 /// A lower loop whose side is a straight run of 41 points on a slanted line (their
