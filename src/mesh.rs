@@ -21,7 +21,7 @@
 
 use crate::bspline::surface::SkinnedSurface;
 use crate::bspline::vecops::{add, dot, norm, scale, sub};
-use crate::geometry::polygon::{crosses_itself, Point};
+use crate::geometry::polygon::{boxes_disjoint, crosses_itself, orient, Point};
 use crate::section::SliceFrame;
 
 pub mod crossings;
@@ -651,15 +651,18 @@ fn undirected(a: P3, b: P3) -> (P3, P3) {
     }
 }
 
+/// Each directed edge's uses minus its reverse's (see [`directed_edges`]).
+type Balance = std::collections::HashMap<EdgeKey, i64>;
+
 /// A problem's directed edges (see [`directed_edges`]): the balance of each, and all of them
 /// in the loops' order.
-type DirectedEdges = (std::collections::HashMap<EdgeKey, i64>, Vec<(P3, P3)>);
+type DirectedEdges = (Balance, Vec<(P3, P3)>);
 
 /// The edges of a problem's end loops as their patches use them (a `top` loop's against its
 /// direction), in the loops' order, and the balance of each: its uses minus its reverse's.
 /// Where the loops tile the plane every balance is 0.
 fn directed_edges(ends: &[(&[P3], bool)]) -> DirectedEdges {
-    let mut balance: std::collections::HashMap<_, i64> = Default::default();
+    let mut balance = Balance::default();
     let mut order: Vec<(P3, P3)> = Vec::new();
     for (l, top) in ends {
         let l = dedup_loop(l);
@@ -690,27 +693,27 @@ fn directed_edges(ends: &[(&[P3], bool)]) -> DirectedEdges {
 /// are walked in the order of the loops' points. Where two loops' edges cross, the cycle is
 /// a figure of eight that only [`seal_problem`] closes without overlaps.
 pub fn seal(ends: &[(&[P3], bool)]) -> Vec<Triangle> {
-    seal_edges(directed_edges(ends))
+    let (balance, order) = directed_edges(ends);
+    seal_edges(balance, &order)
 }
 
 /// [`seal`] from the loops' directed edges.
-fn seal_edges((mut balance, order): DirectedEdges) -> Vec<Triangle> {
+fn seal_edges(mut balance: Balance, order: &[(P3, P3)]) -> Vec<Triangle> {
     use std::collections::{BTreeMap, HashMap};
     type Key = [u64; 3];
-    let key = bits;
     // Seal edges: the reverse of every edge with a positive balance, as many times.
     let mut out_edges: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     let mut points: Vec<P3> = Vec::new();
     let mut index: HashMap<Key, usize> = HashMap::new();
     let mut id = |p: P3, points: &mut Vec<P3>| {
-        *index.entry(key(&p)).or_insert_with(|| {
+        *index.entry(bits(&p)).or_insert_with(|| {
             points.push(p);
             points.len() - 1
         })
     };
-    for (a, b) in order {
-        // Every edge of `order` was counted above.
-        let Some(bal) = balance.get_mut(&(key(&a), key(&b))) else {
+    for &(a, b) in order {
+        // Every edge of `order` has a balance (see `directed_edges`).
+        let Some(bal) = balance.get_mut(&(bits(&a), bits(&b))) else {
             continue;
         };
         while *bal > 0 {
@@ -778,9 +781,8 @@ pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
             .zip(ends)
             .map(|(l, (_, top))| (l.as_slice(), *top))
             .collect();
-        let split_edges = directed_edges(&split_ends);
-        let order = split_edges.1.clone();
-        let triangles = seal_edges(split_edges);
+        let (balance, order) = directed_edges(&split_ends);
+        let triangles = seal_edges(balance, &order);
         let overused = overused_ends(&order, &triangles);
         if overused.is_empty() {
             return (triangles, points);
@@ -791,7 +793,7 @@ pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
             break;
         }
     }
-    (seal_edges(edges), Vec::new())
+    (seal_edges(edges.0, &edges.1), Vec::new())
 }
 
 /// The end points of the edges that the patches (each loop edge once, in `order` from
@@ -847,11 +849,7 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
 /// by crossing: both edges' `[a, b, x]`. Each point is computed from the two segments in a
 /// fixed order of their end points, so both edges, and every copy of them, get it bit for
 /// bit.
-fn crossing_points(
-    ends: &[(&[P3], bool)],
-    balance: &std::collections::HashMap<EdgeKey, i64>,
-) -> Vec<[[P3; 3]; 2]> {
-    let key = bits;
+fn crossing_points(ends: &[(&[P3], bool)], balance: &Balance) -> Vec<[[P3; 3]; 2]> {
     let Some(frame) = ends.iter().find_map(|(l, _)| SliceFrame::of_loop(l)) else {
         return Vec::new();
     };
@@ -861,7 +859,7 @@ fn crossing_points(
         let n = l.len();
         for i in 0..n {
             let (a, b) = (l[i], l[(i + 1) % n]);
-            if n > 1 && a != b && balance.get(&(key(&a), key(&b))).is_some_and(|&m| m != 0) {
+            if n > 1 && a != b && balance.get(&(bits(&a), bits(&b))).is_some_and(|&m| m != 0) {
                 // In the fixed order of their bits.
                 let (a, b) = undirected(a, b);
                 edges.push(([a, b], [frame.to_plane(a), frame.to_plane(b)]));
@@ -872,32 +870,28 @@ fn crossing_points(
         let low = |e: &[[f64; 2]; 2]| e[0][0].min(e[1][0]);
         low(&x.1)
             .total_cmp(&low(&y.1))
-            .then((key(&x.0[0]), key(&x.0[1])).cmp(&(key(&y.0[0]), key(&y.0[1]))))
+            .then((bits(&x.0[0]), bits(&x.0[1])).cmp(&(bits(&y.0[0]), bits(&y.0[1]))))
     });
     edges.dedup_by(|x, y| x.0 == y.0);
-    let turn = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-    };
     let mut found: Vec<[[P3; 3]; 2]> = Vec::new();
     for (i, e) in edges.iter().enumerate() {
         let high = e.1[0][0].max(e.1[1][0]);
-        let (ylo, yhi) = (e.1[0][1].min(e.1[1][1]), e.1[0][1].max(e.1[1][1]));
         for f in edges[i + 1..]
             .iter()
             .take_while(|f| f.1[0][0].min(f.1[1][0]) <= high)
         {
-            if f.1[0][1].max(f.1[1][1]) < ylo || f.1[0][1].min(f.1[1][1]) > yhi {
+            if boxes_disjoint(e.1[0], e.1[1], f.1[0], f.1[1]) {
                 continue;
             }
-            let (s, t) = if (key(&e.0[0]), key(&e.0[1])) <= (key(&f.0[0]), key(&f.0[1])) {
+            let (s, t) = if (bits(&e.0[0]), bits(&e.0[1])) <= (bits(&f.0[0]), bits(&f.0[1])) {
                 (e, f)
             } else {
                 (f, e)
             };
             let ([p, q], [p2, q2]) = *s;
             let ([r, u], [r2, u2]) = *t;
-            let (or, ou) = (turn(p2, q2, r2), turn(p2, q2, u2));
-            let (op, oq) = (turn(r2, u2, p2), turn(r2, u2, q2));
+            let (or, ou) = (orient(p2, q2, r2), orient(p2, q2, u2));
+            let (op, oq) = (orient(r2, u2, p2), orient(r2, u2, q2));
             // A proper crossing only: touching, shared ends and collinear overlaps are not.
             if !(or * ou < 0.0 && op * oq < 0.0) {
                 continue;
@@ -944,16 +938,13 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
     };
     let e2 = cross(&nz, &e1);
     let q: Vec<[f64; 2]> = poly.iter().map(|p| [dot(p, &e1), dot(p, &e2)]).collect();
-    let turn = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-    };
     let mut idx: Vec<usize> = (0..n).collect();
     while idx.len() > 3 {
         let m = idx.len();
         let corner = |k: usize| (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
         let is_ear = |k: usize| {
             let (a, b, c) = corner(k);
-            turn(q[a], q[b], q[c]) > 0.0
+            orient(q[a], q[b], q[c]) > 0.0
                 && idx.iter().all(|&j| {
                     j == a
                         || j == b
@@ -961,9 +952,9 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
                         || q[j] == q[a]
                         || q[j] == q[b]
                         || q[j] == q[c]
-                        || !(turn(q[a], q[b], q[j]) >= 0.0
-                            && turn(q[b], q[c], q[j]) >= 0.0
-                            && turn(q[c], q[a], q[j]) >= 0.0)
+                        || !(orient(q[a], q[b], q[j]) >= 0.0
+                            && orient(q[b], q[c], q[j]) >= 0.0
+                            && orient(q[c], q[a], q[j]) >= 0.0)
                 })
         };
         // An ear with a corner of no angle (three points of a straight run of edges) would
@@ -973,7 +964,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
             let (a, b, c) = corner(k);
             let len = |u: [f64; 2], v: [f64; 2]| (u[0] - v[0]).hypot(u[1] - v[1]);
             let (ab, bc) = (len(q[a], q[b]), len(q[b], q[c]));
-            turn(q[a], q[b], q[c]) > MIN_EAR_SINE * ab * bc
+            orient(q[a], q[b], q[c]) > MIN_EAR_SINE * ab * bc
         };
         let k = (0..m)
             .find(|&k| sharp(k) && is_ear(k))
@@ -983,7 +974,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
                     .max_by(|&x, &y| {
                         let (a, b, c) = corner(x);
                         let (d, e, f) = corner(y);
-                        turn(q[a], q[b], q[c]).total_cmp(&turn(q[d], q[e], q[f]))
+                        orient(q[a], q[b], q[c]).total_cmp(&orient(q[d], q[e], q[f]))
                     })
                     .unwrap_or(0)
             });
