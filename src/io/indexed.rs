@@ -13,8 +13,16 @@
 //! the file's mesh is then closed where mesh.stl is, for readers that do not weld vertices.
 //! Only boundary vertices are held across surfaces. Deterministic: the same triangles in the
 //! same order give the same lists.
+//!
+//! [`Bodies`]: the PLY and 3MF files need every vertex before the first face, and their
+//! counts first of all, but meshes of real CT hold millions of triangles: both bodies are
+//! streamed into anonymous temporary files (they vanish when closed, even if the process is
+//! killed) and copied into the file at the end.
 
 use std::collections::HashMap;
+use std::fs::File;
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::path::Path;
 
 use crate::mesh::Triangle;
 
@@ -85,6 +93,40 @@ impl Indexed {
             .collect();
         out.faces = ids.iter().map(|f| f.map(|i| global[i])).collect();
         out
+    }
+}
+
+/// The vertex and face bodies of an indexed mesh file, held in two temporary files until the
+/// file is finished; see the module doc.
+pub struct Bodies {
+    vertices: BufWriter<File>,
+    faces: BufWriter<File>,
+}
+
+impl Bodies {
+    /// Two empty bodies in `scratch_dir` (normally the output directory).
+    pub fn in_dir(scratch_dir: &Path) -> io::Result<Self> {
+        Ok(Bodies {
+            vertices: BufWriter::with_capacity(1 << 16, tempfile::tempfile_in(scratch_dir)?),
+            faces: BufWriter::with_capacity(1 << 16, tempfile::tempfile_in(scratch_dir)?),
+        })
+    }
+
+    /// Appends one surface's encoded vertices and faces.
+    pub fn append(&mut self, vertices: &[u8], faces: &[u8]) -> io::Result<()> {
+        self.vertices.write_all(vertices)?;
+        self.faces.write_all(faces)
+    }
+
+    /// The vertex and face files, each rewound to its start, with the bytes it holds.
+    pub fn rewound(self) -> io::Result<[(File, u64); 2]> {
+        let rewind = |body: BufWriter<File>| -> io::Result<(File, u64)> {
+            let mut f = body.into_inner().map_err(|e| e.into_error())?;
+            let bytes = f.stream_position()?;
+            f.seek(SeekFrom::Start(0))?;
+            Ok((f, bytes))
+        };
+        Ok([rewind(self.vertices)?, rewind(self.faces)?])
     }
 }
 

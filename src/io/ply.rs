@@ -9,24 +9,20 @@
 //! and with earlier surfaces where their boundaries meet (bit-identical ones merged, see
 //! [`super::indexed`]); coordinates are the exact f64 values.
 //!
-//! The header needs V and F before the bodies, but meshes of real CT can hold millions of
-//! triangles: the vertex and face bodies are streamed into two anonymous temporary files (in
-//! a directory of the caller's choice, normally the output directory; they vanish when closed,
-//! even if the process is killed) and copied behind the header by [`PlyWriter::finish`]. Memory
-//! holds one surface at a time, and the boundary vertices. Deterministic: the same triangles give the same bytes.
+//! The header needs V and F before the bodies: they are streamed into temporary files
+//! ([`Bodies`], in a directory of the caller's choice) and copied behind the header by
+//! [`PlyWriter::finish`]. Memory holds one surface at a time, and the boundary vertices. Deterministic: the same triangles give the same bytes.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
-use super::indexed::{Indexed, Seams};
+use super::indexed::{Bodies, Indexed, Seams};
 use crate::mesh::Triangle;
 
 pub struct PlyWriter<W: Write> {
     out: W,
     comments: Vec<String>,
-    vertex_body: BufWriter<File>,
-    face_body: BufWriter<File>,
+    bodies: Bodies,
     vertices: u64,
     faces: u64,
     seams: Seams,
@@ -39,8 +35,7 @@ impl<W: Write> PlyWriter<W> {
         Ok(PlyWriter {
             out,
             comments: comment.lines().map(str::to_string).collect(),
-            vertex_body: BufWriter::with_capacity(1 << 16, tempfile::tempfile_in(scratch_dir)?),
-            face_body: BufWriter::with_capacity(1 << 16, tempfile::tempfile_in(scratch_dir)?),
+            bodies: Bodies::in_dir(scratch_dir)?,
             vertices: 0,
             faces: 0,
             seams: Seams::default(),
@@ -59,22 +54,21 @@ impl<W: Write> PlyWriter<W> {
                 "more than 2^31 − 1 vertices: PLY int32 indices cannot address them",
             ));
         }
-        let mut buf = Vec::with_capacity(24 * m.vertices.len());
+        let mut vertices = Vec::with_capacity(24 * m.vertices.len());
         for v in &m.vertices {
             for c in v {
-                buf.extend_from_slice(&c.to_le_bytes());
+                vertices.extend_from_slice(&c.to_le_bytes());
             }
         }
-        self.vertex_body.write_all(&buf)?;
-        buf.clear();
+        let mut faces = Vec::with_capacity(13 * m.faces.len());
         for f in &m.faces {
-            buf.push(3u8);
+            faces.push(3u8);
             for &i in f {
                 // Below 2^31 − 1: checked above against the vertex count.
-                buf.extend_from_slice(&(i as i32).to_le_bytes());
+                faces.extend_from_slice(&(i as i32).to_le_bytes());
             }
         }
-        self.face_body.write_all(&buf)?;
+        self.bodies.append(&vertices, &faces)?;
         self.comments.push(format!(
             "surface {id} faces {} {}",
             self.faces,
@@ -99,12 +93,8 @@ impl<W: Write> PlyWriter<W> {
             self.vertices, self.faces
         ));
         self.out.write_all(h.as_bytes())?;
-        for (body, bytes) in [
-            (self.vertex_body, 24 * self.vertices),
-            (self.face_body, 13 * self.faces),
-        ] {
-            let mut f = body.into_inner().map_err(|e| e.into_error())?;
-            f.seek(SeekFrom::Start(0))?;
+        let expected = [24 * self.vertices, 13 * self.faces];
+        for ((mut f, _), bytes) in self.bodies.rewound()?.into_iter().zip(expected) {
             let copied = io::copy(&mut f, &mut self.out)?;
             if copied != bytes {
                 return Err(io::Error::other(format!(
