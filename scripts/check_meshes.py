@@ -1,13 +1,17 @@
 #!/usr/bin/env python3
-"""Check a `bskin run` output directory's meshes with an independent reader (trimesh).
+"""Check a `bskin run` output directory's meshes with independent readers (trimesh, lib3mf).
 
-In: OUT_DIR holding report.json and mesh.stl plus mesh.obj and/or mesh.ply (from
-`bskin run --formats stl,obj,ply`). Checks:
-  - each of mesh.obj and mesh.ply loads in trimesh (process=False: nothing merged or dropped)
+In: OUT_DIR holding report.json and mesh.stl plus mesh.obj, mesh.ply and/or mesh.3mf (from
+`bskin run --formats stl,obj,ply,3mf`). Checks:
+  - each of mesh.obj and mesh.ply loads in trimesh (process=False: nothing merged or dropped),
+    mesh.3mf in lib3mf (the 3MF Consortium's reader, strict mode: any spec violation fails),
     and holds the same number of triangles as mesh.stl and as report.json's surfaces;
   - its triangles are mesh.stl's, in the same order and with the same vertex order (so the
     same winding), within the STL's float32 rounding; bounds, area and signed volume agree;
   - mesh.obj names one object per surface with triangles, `surface_<id>` as in report.json;
+    mesh.3mf is in millimetres, names the coordinate system in its Description, is manifold
+    and oriented where welded mesh.stl is watertight, and holds one triangle set per surface
+    with triangles, `surface_<id>` with its triangles in order;
   - the header comments / STL header name the coordinate system of report.json.
 With --lps-dir LPS_DIR (OUT_DIR being the same input run with --ras): report.json says "RAS"
 there and "LPS" in LPS_DIR, every vertex of every mesh is the LPS one with x and y negated
@@ -32,6 +36,49 @@ def load(path):
     if not isinstance(m, trimesh.Trimesh):
         raise RuntimeError(f"{path}: trimesh gave {type(m).__name__}, not a mesh")
     return m
+
+
+def load_3mf(path, report, failures):
+    """mesh.3mf through lib3mf in strict mode, as a trimesh (float32 coordinates, as read)."""
+    import lib3mf
+
+    wrapper = lib3mf.get_wrapper()
+    model = wrapper.CreateModel()
+    reader = model.QueryReader("3mf")
+    reader.SetStrictModeActive(True)
+    reader.ReadFromFile(path)
+    for i in range(reader.GetWarningCount()):
+        failures.append(f"mesh.3mf: lib3mf warning {reader.GetWarning(i)}")
+    if model.GetUnit() != lib3mf.ModelUnit.MilliMeter:
+        failures.append(f"mesh.3mf: unit {model.GetUnit()}, not millimetres")
+    meta = model.GetMetaDataGroup()
+    description = " ".join(meta.GetMetaData(i).GetValue() for i in range(meta.GetMetaDataCount())
+                           if meta.GetMetaData(i).GetName() == "Description")
+    if f"patient {report['coordinates']}" not in description:
+        failures.append(f"mesh.3mf: Description metadata does not name {report['coordinates']}")
+    objects = model.GetMeshObjects()
+    found = []
+    while objects.MoveNext():
+        found.append(objects.GetCurrentMeshObject())
+    if len(found) != 1:
+        raise RuntimeError(f"{path}: {len(found)} mesh objects, expected 1")
+    obj = found[0]
+    vertices = np.array([list(p.Coordinates) for p in obj.GetVertices()], dtype=np.float64)
+    faces = np.array([list(t.Indices) for t in obj.GetTriangleIndices()], dtype=np.int64)
+    # Triangle sets: one per surface with triangles, in report order, covering its range.
+    want = [(f"surface_{s['id']}", s["triangles"]) for s in report["surfaces"] if s["triangles"] > 0]
+    sets, first = [], 0
+    for i in range(obj.GetTriangleSetCount()):
+        ts = obj.GetTriangleSet(i)
+        tris = list(ts.GetTriangleList())
+        sets.append((ts.GetIdentifier(), len(tris)))
+        if tris != list(range(first, first + len(tris))):
+            failures.append(f"mesh.3mf: triangle set {ts.GetIdentifier()} is not triangles "
+                            f"{first}.. in order")
+        first += len(tris)
+    if sets != want:
+        failures.append(f"mesh.3mf: triangle sets {sets[:3]}… differ from report.json's {want[:3]}…")
+    return trimesh.Trimesh(vertices, faces, process=False), obj.IsManifoldAndOriented()
 
 
 def header_text(path):
@@ -62,11 +109,17 @@ def check_dir(d, failures):
     stl_closed = trimesh.load(stl_path, force="mesh").is_watertight
     scale = max(1.0, float(np.abs(stl.vertices).max()))
     atol = 4 * np.finfo(np.float32).eps * scale
-    for ext in ("obj", "ply"):
+    for ext in ("obj", "ply", "3mf"):
         path = os.path.join(d, f"mesh.{ext}")
         if not os.path.exists(path):
             continue
-        m = load(path)
+        if ext == "3mf":
+            m, oriented = load_3mf(path, report, failures)
+            if oriented != stl_closed:
+                failures.append(f"mesh.3mf: lib3mf manifold and oriented {oriented}, mesh.stl "
+                                f"welded watertight {stl_closed}")
+        else:
+            m = load(path)
         meshes[ext] = m
         name = f"mesh.{ext}"
         if len(m.faces) != len(stl.faces):
@@ -81,7 +134,7 @@ def check_dir(d, failures):
         for what, a, b in [("area", m.area, stl.area), ("signed volume", m.volume, stl.volume)]:
             if abs(a - b) > 1e-5 * max(1.0, abs(b)):
                 failures.append(f"{name}: {what} {a} vs mesh.stl {b}")
-        if f"patient {cs}" not in header_text(path):
+        if ext != "3mf" and f"patient {cs}" not in header_text(path):
             failures.append(f"{name}: header does not name {cs}")
         if m.is_watertight != stl_closed:
             failures.append(f"{name}: watertight {m.is_watertight} as written, mesh.stl welded "
@@ -107,7 +160,7 @@ def main():
     failures = []
     report, meshes = check_dir(a.out_dir, failures)
     if len(meshes) == 1:
-        failures.append("neither mesh.obj nor mesh.ply to check")
+        failures.append("no mesh.obj, mesh.ply or mesh.3mf to check")
     if a.lps_dir:
         lps_report, lps_meshes = check_dir(a.lps_dir, failures)
         if (report["coordinates"], lps_report["coordinates"]) != ("RAS", "LPS"):

@@ -94,10 +94,10 @@ pub struct RunArgs {
     #[command(flatten)]
     pub pipeline: PipelineArgs,
     /// Output directory (created): report.json, mesh.stl, surfaces.step, surfaces.igs (and
-    /// mesh.obj, mesh.ply when asked for).
+    /// mesh.obj, mesh.ply, mesh.3mf when asked for).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Files to write besides report.json, comma-separated: stl, obj, ply, step, igs.
+    /// Files to write besides report.json, comma-separated: stl, obj, ply, 3mf, step, igs.
     #[arg(long, default_value = "stl,step,igs")]
     pub formats: String,
     /// Write every geometric output in RAS (x right, y anterior) instead of DICOM patient LPS

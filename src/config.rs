@@ -96,6 +96,8 @@ pub struct OutputOptions {
     pub obj: bool,
     /// `mesh.ply` (binary little-endian PLY).
     pub ply: bool,
+    /// `mesh.3mf` (3MF package, for 3D-printing slicers).
+    pub three_mf: bool,
     /// `surfaces.step`.
     pub step: bool,
     /// `surfaces.igs`.
@@ -113,6 +115,7 @@ impl Default for OutputOptions {
             stl: true,
             obj: false,
             ply: false,
+            three_mf: false,
             step: true,
             iges: true,
             samples: false,
@@ -122,13 +125,14 @@ impl Default for OutputOptions {
 }
 
 impl OutputOptions {
-    /// From a comma-separated list of formats (`stl`, `obj`, `ply`, `step`, `igs`; `stp` and
+    /// From a comma-separated list of formats (`stl`, `obj`, `ply`, `3mf`, `step`, `igs`; `stp` and
     /// `iges` are accepted too). Samples stay off; coordinates are LPS.
     pub fn from_formats(list: &str) -> Result<Self, String> {
         let mut o = OutputOptions {
             stl: false,
             obj: false,
             ply: false,
+            three_mf: false,
             step: false,
             iges: false,
             samples: false,
@@ -139,11 +143,12 @@ impl OutputOptions {
                 "stl" => o.stl = true,
                 "obj" => o.obj = true,
                 "ply" => o.ply = true,
+                "3mf" => o.three_mf = true,
                 "step" | "stp" => o.step = true,
                 "igs" | "iges" => o.iges = true,
                 other => {
                     return Err(format!(
-                        "unknown format {other:?}; choose from stl, obj, ply, step, igs"
+                        "unknown format {other:?}; choose from stl, obj, ply, 3mf, step, igs"
                     ))
                 }
             }

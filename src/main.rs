@@ -403,16 +403,18 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
         },
         max_error_mm,
         tolerance_met: surfaces.iter().all(|s| s.tolerance_met),
-        mesh: (config.outputs.stl || config.outputs.obj || config.outputs.ply).then(|| {
-            bskin::io::report::MeshReport {
+        mesh: (config.outputs.stl
+            || config.outputs.obj
+            || config.outputs.ply
+            || config.outputs.three_mf)
+            .then(|| bskin::io::report::MeshReport {
                 chordal_fraction: config.mesh_chordal,
                 chordal_mm: config.mesh_chordal * config.tolerance_mm,
                 triangles: surfaces.iter().map(|s| s.triangles).sum(),
                 seal_triangles: surfaces.iter().map(|s| s.seal_triangles).sum(),
                 folded_surfaces: surfaces.iter().filter(|s| s.folded_rows > 0).count(),
                 folded_rows: surfaces.iter().map(|s| s.folded_rows).sum(),
-            }
-        }),
+            }),
         surfaces,
         files: result.written.files,
         timings: Timings {

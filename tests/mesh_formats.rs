@@ -1,6 +1,7 @@
 //! Mesh formats and the coordinate system, end to end on the phantom series in
-//! `testdata/tube-split`: `mesh.obj` and `mesh.ply` read back (by small parsers written here,
-//! independent of the writers) hold exactly the triangles of `mesh.stl`; `--ras` turns every
+//! `testdata/tube-split`: `mesh.obj`, `mesh.ply` and `mesh.3mf` read back (by small parsers
+//! written here, independent of the writers) hold exactly the triangles of `mesh.stl`
+//! (`scripts/check_meshes.py` reads them with trimesh and lib3mf in CI); `--ras` turns every
 //! geometric output (meshes, STEP, samples) into the LPS one with x and y negated, keeps the
 //! winding outward, and the report and headers say which system.
 
@@ -24,6 +25,7 @@ fn run(out: &Path, coordinates: CoordinateSystem) -> RunSummary {
         stl: true,
         obj: true,
         ply: true,
+        three_mf: true,
         step: true,
         iges: true,
         samples: true,
@@ -106,6 +108,55 @@ fn read_ply(path: &Path) -> (String, usize, Vec<Tri>) {
         })
         .collect();
     (header, nv, tris)
+}
+
+/// The value of attribute `name` in one XML element's text.
+fn attr<'a>(element: &'a str, name: &str) -> &'a str {
+    let key = format!(" {name}=\"");
+    let at = element
+        .find(&key)
+        .unwrap_or_else(|| panic!("{name} in {element}"))
+        + key.len();
+    &element[at..at + element[at..].find('"').unwrap()]
+}
+
+/// A 3MF package's model: (triangles, vertex count, triangle sets as (identifier, count),
+/// the model element's text before `<resources>`).
+fn read_3mf(path: &Path) -> (Vec<Tri>, usize, Vec<(String, usize)>, String) {
+    use std::io::Read;
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).unwrap();
+    let mut names: Vec<String> = zip.file_names().map(|n| n.unwrap().into_owned()).collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["3D/3dmodel.model", "[Content_Types].xml", "_rels/.rels"]
+    );
+    let mut model = String::new();
+    zip.by_name("3D/3dmodel.model")
+        .unwrap()
+        .read_to_string(&mut model)
+        .unwrap();
+    let head = model[..model.find("<resources>").unwrap()].to_string();
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
+    let mut tris = Vec::new();
+    let mut sets: Vec<(String, usize)> = Vec::new();
+    for element in model.split('<').map(|e| e.trim_end()) {
+        if element.starts_with("vertex ") {
+            let c = |n: &str| attr(element, n).parse::<f64>().unwrap();
+            vertices.push([c("x"), c("y"), c("z")]);
+        } else if element.starts_with("triangle ") {
+            let v = |n: &str| vertices[attr(element, n).parse::<usize>().unwrap()];
+            tris.push([v("v1"), v("v2"), v("v3")]);
+        } else if element.starts_with("t:triangleset ") {
+            sets.push((attr(element, "identifier").to_string(), 0));
+        } else if element.starts_with("t:ref ") {
+            let k: usize = attr(element, "index").parse().unwrap();
+            let before: usize = sets.iter().map(|s| s.1).sum();
+            assert_eq!(k, before, "triangle sets list the triangles in order");
+            sets.last_mut().unwrap().1 += 1;
+        }
+    }
+    (tris, vertices.len(), sets, head)
 }
 
 /// Largest coordinate difference between two triangle lists of the same length.
@@ -197,10 +248,26 @@ fn obj_and_ply_hold_the_stl_triangles_with_shared_vertices() {
         .iter()
         .map(|f| f.name.as_str())
         .collect();
-    for n in ["mesh.stl", "mesh.obj", "mesh.ply"] {
+    for n in ["mesh.stl", "mesh.obj", "mesh.ply", "mesh.3mf"] {
         assert!(names.contains(&n), "{names:?}");
     }
-    // No scratch file of the PLY writer is left behind.
+    // 3MF: the PLY's triangles bit for bit (shortest round-trip decimals), its shared
+    // vertices, one triangle set per surface, millimetres and the coordinate system.
+    let (three_mf, three_mf_vertices, sets, model_head) = read_3mf(&out.join("mesh.3mf"));
+    assert!(three_mf == ply, "3MF and PLY carry the same f64 triangles");
+    assert_eq!(three_mf_vertices, ply_vertices);
+    let counted: Vec<(String, usize)> = surfaces
+        .iter()
+        .filter(|s| s.triangles > 0)
+        .map(|s| (format!("surface_{}", s.id), s.triangles))
+        .collect();
+    assert_eq!(sets, counted);
+    assert!(
+        model_head.contains("unit=\"millimeter\"")
+            && model_head.contains("coordinates: patient LPS"),
+        "{model_head}"
+    );
+    // No scratch file of the PLY and 3MF writers is left behind.
     let mut left: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -209,6 +276,7 @@ fn obj_and_ply_hold_the_stl_triangles_with_shared_vertices() {
     assert_eq!(
         left,
         [
+            "mesh.3mf",
             "mesh.obj",
             "mesh.ply",
             "mesh.stl",

@@ -1,5 +1,5 @@
-//! The mesh files of a run together: `mesh.stl`, `mesh.obj` and `mesh.ply`, whichever were
-//! asked for, fed the same triangles surface by surface.
+//! The mesh files of a run together: `mesh.stl`, `mesh.obj`, `mesh.ply` and `mesh.3mf`,
+//! whichever were asked for, fed the same triangles surface by surface.
 //!
 //! In: the output directory, which formats, the coordinate system the triangles are in (for
 //! the headers), then per surface its id and triangles. Out: the files, each written under a
@@ -13,6 +13,7 @@ use super::atomic::AtomicFile;
 use super::obj::ObjWriter;
 use super::ply::PlyWriter;
 use super::stl::StlWriter;
+use super::threemf::ThreeMfWriter;
 use crate::config::{CoordinateSystem, OutputOptions};
 use crate::mesh::Triangle;
 use crate::{Error, Result};
@@ -20,11 +21,13 @@ use crate::{Error, Result};
 pub const STL_FILE: &str = "mesh.stl";
 pub const OBJ_FILE: &str = "mesh.obj";
 pub const PLY_FILE: &str = "mesh.ply";
+pub const THREE_MF_FILE: &str = "mesh.3mf";
 
 pub struct MeshWriters {
     stl: Option<(PathBuf, StlWriter<AtomicFile>)>,
     obj: Option<(PathBuf, ObjWriter<AtomicFile>)>,
     ply: Option<(PathBuf, PlyWriter<AtomicFile>)>,
+    three_mf: Option<(PathBuf, ThreeMfWriter<AtomicFile>)>,
 }
 
 fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
@@ -34,7 +37,7 @@ fn output_error(path: &Path) -> impl Fn(std::io::Error) -> Error + '_ {
     }
 }
 
-/// Header text of the OBJ and PLY files: producer, units, coordinate system, winding.
+/// Header text of the OBJ, PLY and 3MF files: producer, units, coordinate system, winding.
 pub fn mesh_comment(system: CoordinateSystem) -> String {
     format!(
         "bskin {} mesh of B-spline surfaces\nunits: mm\ncoordinates: patient {}{}\n\
@@ -80,12 +83,27 @@ impl MeshWriters {
         } else {
             None
         };
-        Ok(MeshWriters { stl, obj, ply })
+        let three_mf = if outputs.three_mf {
+            let path = out_dir.join(THREE_MF_FILE);
+            let d =
+                format!("{comment}\none triangle set per surface: surface_<id> as in report.json");
+            let w = ThreeMfWriter::new(AtomicFile::create(&path)?, &d, out_dir)
+                .map_err(output_error(&path))?;
+            Some((path, w))
+        } else {
+            None
+        };
+        Ok(MeshWriters {
+            stl,
+            obj,
+            ply,
+            three_mf,
+        })
     }
 
     /// Whether any mesh file is being written (else the caller need not tessellate).
     pub fn any(&self) -> bool {
-        self.stl.is_some() || self.obj.is_some() || self.ply.is_some()
+        self.stl.is_some() || self.wants_whole_surfaces()
     }
 
     /// Surface `id`'s triangles into every open mesh file.
@@ -103,13 +121,13 @@ impl MeshWriters {
         Ok(())
     }
 
-    /// Whether `mesh.obj` or `mesh.ply` is open: they index a surface's shared vertices, so
-    /// they need its triangles at once ([`Self::write_indexed`]).
+    /// Whether `mesh.obj`, `mesh.ply` or `mesh.3mf` is open: they index a surface's shared
+    /// vertices, so they need its triangles at once ([`Self::write_indexed`]).
     pub fn wants_whole_surfaces(&self) -> bool {
-        self.obj.is_some() || self.ply.is_some()
+        self.obj.is_some() || self.ply.is_some() || self.three_mf.is_some()
     }
 
-    /// Surface `id`'s triangles, all of them, into `mesh.obj` and `mesh.ply`.
+    /// Surface `id`'s triangles, all of them, into `mesh.obj`, `mesh.ply` and `mesh.3mf`.
     pub fn write_indexed(&mut self, id: usize, tris: &[Triangle]) -> Result<()> {
         if let Some((path, w)) = self.obj.as_mut() {
             w.write_surface(id, tris).map_err(output_error(path))?;
@@ -117,11 +135,14 @@ impl MeshWriters {
         if let Some((path, w)) = self.ply.as_mut() {
             w.write_surface(id, tris).map_err(output_error(path))?;
         }
+        if let Some((path, w)) = self.three_mf.as_mut() {
+            w.write_surface(id, tris).map_err(output_error(path))?;
+        }
         Ok(())
     }
 
     /// Completes every file and renames it onto its final name; returns their paths in the
-    /// order STL, OBJ, PLY.
+    /// order STL, OBJ, PLY, 3MF.
     pub fn commit(self) -> Result<Vec<PathBuf>> {
         let mut done = Vec::new();
         if let Some((path, w)) = self.stl {
@@ -133,6 +154,10 @@ impl MeshWriters {
             done.push(path);
         }
         if let Some((path, w)) = self.ply {
+            w.finish().map_err(output_error(&path))?.commit()?;
+            done.push(path);
+        }
+        if let Some((path, w)) = self.three_mf {
             w.finish().map_err(output_error(&path))?.commit()?;
             done.push(path);
         }

@@ -14,3 +14,4 @@ pub mod report;
 pub mod samples;
 pub mod step;
 pub mod stl;
+pub mod threemf;

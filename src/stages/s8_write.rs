@@ -1,10 +1,10 @@
 //! Stage 8: writers. Surfaces arrive in region order; each is put into the output coordinate
 //! system ([`CoordinateSystem`]: DICOM LPS, or RAS), tessellated once and streamed into the
-//! meshes asked for ([`MeshWriters`]: `mesh.stl`, `mesh.obj`, `mesh.ply`), and summarised
-//! for `report.json`. The CAD files (`surfaces.step`,
-//! `surfaces.igs`) and the optional `samples.json` need every surface, so the surfaces are
-//! kept as they arrive and those files are written at the end, in region order. Which files
-//! are written is [`OutputOptions`]. Files are written under temporary names and renamed only
+//! meshes asked for ([`MeshWriters`]: `mesh.stl`, `mesh.obj`, `mesh.ply`, `mesh.3mf`), and
+//! summarised for `report.json`. The CAD files (`surfaces.step`, `surfaces.igs`) and the
+//! optional `samples.json` need every surface, so the surfaces are kept as they arrive and
+//! those files are written at the end, in region order. Which files are written is
+//! [`OutputOptions`]. Files are written under temporary names and renamed only
 //! when complete, so a failed or interrupted run leaves no half-written output.
 
 use std::path::{Path, PathBuf};
