@@ -187,7 +187,7 @@ fn ras(p: [f64; 3]) -> [f64; 3] {
 }
 
 #[test]
-fn obj_and_ply_hold_the_stl_triangles_with_shared_vertices() {
+fn obj_ply_and_3mf_hold_the_stl_triangles_with_shared_vertices() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("lps");
     let summary = run(&out, CoordinateSystem::Lps);

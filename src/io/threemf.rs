@@ -8,9 +8,9 @@
 //! closed mesh: `<vertices>`, `<triangles>` in the triangles' vertex order (counter-clockwise
 //! seen from outside, as 3MF requires), and one triangle set per surface (the triangle-sets
 //! extension of 3MF Core 1.3, `surface_<id>` as in report.json, one `<t:ref>` per triangle;
-//! readers that do not know it ignore it). Vertices are shared within a surface and with earlier surfaces where their
-//! boundaries meet, as in mesh.ply ([`super::indexed`]); coordinates are the shortest decimal
-//! that reads back as the exact f64. A triangle repeating a vertex (no area; 3MF forbids it)
+//! readers that do not know it ignore it). Vertices are shared within a surface and with
+//! earlier surfaces where their boundaries meet, as in mesh.ply ([`super::indexed`]);
+//! coordinates are the shortest decimal that reads back as the exact f64. A triangle repeating a vertex (no area; 3MF forbids it)
 //! is left out; the pipeline's meshes have none.
 //!
 //! As in mesh.ply, the model part needs every vertex before the first triangle: the vertex and
@@ -162,8 +162,9 @@ impl<W: Write + Seek> ThreeMfWriter<W> {
             self.bodies.rewound()?;
         let body_bytes = vertex_bytes + triangle_bytes;
         let between = "</vertices>\n<triangles>\n";
-        // An upper bound of the model's size, to choose ZIP64 only when it is needed.
-        let sets_bytes = 100 * self.sets.len() as u64 + 40 * self.triangles;
+        // An upper bound of the model's size, to choose ZIP64 only when it is needed: a set's
+        // element with two 20-digit ids is under 160 bytes, a `<t:ref>` under 40.
+        let sets_bytes = 64 + 160 * self.sets.len() as u64 + 40 * self.triangles;
         let model_bytes =
             (head.len() + between.len() + tail.len()) as u64 + body_bytes + sets_bytes;
         let options = SimpleFileOptions::default()
