@@ -752,6 +752,39 @@ fn seal_edges(mut balance: Balance, order: &[(P3, P3)]) -> Vec<Triangle> {
     tris
 }
 
+/// The edges of one problem's end loops (`ends` as in [`seal`]) that two loops on the same
+/// side of its plane run opposite ways: chains where two regions' loops meet, each region's
+/// patch reaching them from its own side (a branching's pieces of one intermediate contour).
+/// Each once, as `[a, b]` of the first loop that has it, in the loops' order.
+pub fn shared_edges(ends: &[(&[P3], bool)]) -> Vec<[P3; 2]> {
+    let loops: Vec<(Vec<P3>, bool)> = ends.iter().map(|(l, top)| (dedup_loop(l), *top)).collect();
+    let edges = |l: &[P3]| -> Vec<(P3, P3)> {
+        if l.len() < 2 {
+            return Vec::new();
+        }
+        (0..l.len()).map(|i| (l[i], l[(i + 1) % l.len()])).collect()
+    };
+    let mut runs: std::collections::HashMap<EdgeKey, Vec<usize>> = Default::default();
+    for (k, (l, _)) in loops.iter().enumerate() {
+        for (a, b) in edges(l) {
+            runs.entry((bits(&a), bits(&b))).or_default().push(k);
+        }
+    }
+    let mut seen = std::collections::HashSet::new();
+    let mut out = Vec::new();
+    for (k, (l, top)) in loops.iter().enumerate() {
+        for (a, b) in edges(l) {
+            let against = runs.get(&(bits(&b), bits(&a)));
+            let shared = against.is_some_and(|o| o.iter().any(|&j| j != k && loops[j].1 == *top));
+            let (x, y) = undirected(a, b);
+            if shared && seen.insert((bits(&x), bits(&y))) {
+                out.push([a, b]);
+            }
+        }
+    }
+    out
+}
+
 /// [`seal`] on one problem's end loops, after putting a point where two of their unmatched
 /// edges cross onto both edges; with those points, as `[a, b, x]`: `x` on the edge between
 /// `a` and `b` (in the order of their bits). The mesh puts each into the region's end row
@@ -1007,6 +1040,28 @@ mod tests {
         }
         fins.finish();
         out
+    }
+
+    #[test]
+    fn shared_edges_are_where_siblings_on_one_side_meet() {
+        let sq = |x0: f64, x1: f64, z: f64| -> Vec<P3> {
+            vec![[x0, 0.0, z], [x1, 0.0, z], [x1, 1.0, z], [x0, 1.0, z]]
+        };
+        // Two lower regions end at the two halves of a rectangle the upper region starts at;
+        // the halves meet along x = 1. A keyhole's slit (an edge and its reverse in one
+        // loop) is not a chain between siblings.
+        let (left, right, whole) = (sq(0.0, 1.0, 2.0), sq(1.0, 2.0, 2.0), sq(0.0, 2.0, 2.0));
+        let mut whole = whole;
+        whole.splice(2..2, [[1.5, 0.5, 2.0], [2.0, 1.0, 2.0]]);
+        let ends: Vec<(&[P3], bool)> = vec![(&left, true), (&right, true), (&whole, false)];
+        let shared = shared_edges(&ends);
+        assert_eq!(shared, vec![[[1.0, 0.0, 2.0], [1.0, 1.0, 2.0]]]);
+        // The same halves as the upper side's pieces: still a chain between siblings.
+        let ends: Vec<(&[P3], bool)> = vec![(&whole, true), (&left, false), (&right, false)];
+        assert_eq!(shared_edges(&ends).len(), 1);
+        // One half below, the other above: they meet across the plane, not side by side.
+        let ends: Vec<(&[P3], bool)> = vec![(&left, true), (&right, false)];
+        assert!(shared_edges(&ends).is_empty());
     }
 
     #[test]

@@ -65,6 +65,11 @@ pub struct Region {
     /// where two loops' edges cross (see [`crate::mesh::seal_problem`]). The mesh's end rows
     /// take them; the fitted curves do not.
     pub seal_points: Vec<[[f64; 3]; 3]>,
+    /// Edges of its end loops that a neighbouring region's loop on the same side of the plane
+    /// runs the other way (see [`crate::mesh::shared_edges`]), either way round: stage 6
+    /// fences them when it judges the surface, so rulings that leave them to the neighbour's
+    /// side count as crossings.
+    pub shared_edges: Vec<[[f64; 3]; 2]>,
     /// The first curve is the contour where the previous segment of the same chain ended
     /// (a long chain is split, see `RunConfig::max_curves`): its points count there.
     pub joint_below: bool,
@@ -112,6 +117,7 @@ impl Region {
                 ]
                 .concat(),
                 seal_points: self.seal_points.clone(),
+                shared_edges: self.shared_edges.clone(),
                 joint_below: if i == 0 { self.joint_below } else { true },
                 inserted: [
                     if i == 0 { self.inserted[0] } else { 0 },

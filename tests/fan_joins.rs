@@ -267,6 +267,7 @@ fn fingered_stack() -> Region {
         curves,
         seal: Vec::new(),
         seal_points: Vec::new(),
+        shared_edges: Vec::new(),
         joint_below: false,
         inserted: [3, 2],
     }

@@ -25,7 +25,7 @@ use crate::geometry::keyhole::{join_rings, open_slits, search_step, slits};
 use crate::geometry::overlap::{overlap_area, Region as Material};
 use crate::geometry::polygon::Point;
 use crate::geometry::polygon::{bbox, contains, signed_area};
-use crate::mesh::seal_problem;
+use crate::mesh::{seal_problem, shared_edges};
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, Section, SliceFrame};
 use crate::{Error, Result};
@@ -697,6 +697,7 @@ impl Assembler {
             }],
             seal: Vec::new(),
             seal_points: Vec::new(),
+            shared_edges: Vec::new(),
             joint_below: false,
             inserted: [0, 0],
         })
@@ -774,6 +775,7 @@ impl Assembler {
                 }],
                 seal: Vec::new(),
                 seal_points: Vec::new(),
+                shared_edges: Vec::new(),
                 joint_below: false,
                 inserted: [inserted, 0],
             });
@@ -816,6 +818,7 @@ impl Assembler {
                             curves: joint.into_iter().collect(),
                             seal: Vec::new(),
                             seal_points: Vec::new(),
+                            shared_edges: Vec::new(),
                             joint_below: true,
                             inserted: [0, 0],
                         };
@@ -877,6 +880,7 @@ impl Assembler {
                         )
                         .collect();
                     let (seal, seal_points) = seal_problem(&ends);
+                    let shared = shared_edges(&ends);
                     let mut seal = Some(seal);
                     let mut lower_keyholes: Vec<Option<Keyhole>> =
                         lower_keyholes.into_iter().map(Some).collect();
@@ -894,6 +898,7 @@ impl Assembler {
                         r.curves.push(RegionCurve { points, origin });
                         r.seal.extend(seal.take().unwrap_or_default());
                         r.seal_points.extend_from_slice(&seal_points);
+                        r.shared_edges.extend_from_slice(&shared);
                         self.close(r, &mut closed);
                     }
                     for ((&k, points), holes_above) in upper.iter().zip(above).zip(hole_above) {
@@ -903,6 +908,7 @@ impl Assembler {
                             curves: vec![RegionCurve { points, origin }],
                             seal: seal.take().unwrap_or_default(),
                             seal_points: seal_points.clone(),
+                            shared_edges: shared.clone(),
                             joint_below: false,
                             inserted: [0, 0],
                         };
@@ -915,6 +921,7 @@ impl Assembler {
                                 curves: vec![RegionCurve { points, origin }, contour_curve(up, h)],
                                 seal: Vec::new(),
                                 seal_points: seal_points.clone(),
+                                shared_edges: shared.clone(),
                                 joint_below: false,
                                 inserted: [0, 0],
                             });
@@ -1015,6 +1022,7 @@ impl Assembler {
                                 curves: vec![end, contour_curve(section, k)],
                                 seal: seal.take().unwrap_or_default(),
                                 seal_points: seal_points.clone(),
+                                shared_edges: Vec::new(),
                                 joint_below: false,
                                 inserted: [0, 0],
                             });

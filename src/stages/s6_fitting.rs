@@ -2,10 +2,10 @@
 //! Every curve of a region — contours, intermediate contours, caps — is fitted on one knot
 //! vector within the tolerance, at chord-length parameters or, where those would fold the
 //! surface between two loops, at warped ones ([`chord_warps`]); where the surface still
-//! crosses itself (or the fence on a cap's ridge loop: [`s7_skinning::Crossings`]), also
-//! with the loops joined by fans ([`fan_tables`]), cut into segments ([`fit_segments`]), and
-//! with a curve halfway between a crossing band's loops ([`with_halfway_curves`]), each kept
-//! if it crosses less. Regions are fitted as they arrive, several at once, and leave in
+//! crosses itself (or a fence: on a cap's ridge loop, or on a chain where its end loop meets a
+//! sibling's: [`s7_skinning::Crossings`]), also with the loops joined by fans
+//! ([`fan_tables`]), cut into segments ([`fit_segments`]), and with a curve halfway between a
+//! crossing band's loops ([`with_halfway_curves`]), each kept if it crosses less. Regions are fitted as they arrive, several at once, and leave in
 //! arrival order.
 
 use std::collections::BTreeMap;
@@ -551,6 +551,7 @@ mod tests {
             curves,
             seal: Vec::new(),
             seal_points: Vec::new(),
+            shared_edges: Vec::new(),
             joint_below: false,
             inserted: [0, 0],
         }
@@ -561,7 +562,11 @@ mod tests {
         let (tx, rx) = crossbeam_channel::bounded(2);
         let (out_tx, out_rx) = crossbeam_channel::unbounded();
         // A stage that stopped early leaves the feeder's sends failing: that is not an error.
-        let feeder = std::thread::spawn(move || regions.into_iter().try_for_each(|r| tx.send(r)));
+        let feeder = std::thread::spawn(move || {
+            regions
+                .into_iter()
+                .try_for_each(|r| tx.send(r).map_err(|_| ()))
+        });
         let result = run(rx, &FitOptions::new(0.5), window, out_tx, &Control::new());
         let _ = feeder.join();
         (out_rx.try_iter().collect(), result)
