@@ -878,10 +878,10 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
     out
 }
 
-/// The points where two unmatched edges of the loops (`balance` from [`directed_edges`]) cross properly,
-/// by crossing: both edges' `[a, b, x]`. Each point is computed from the two segments in a
-/// fixed order of their end points, so both edges, and every copy of them, get it bit for
-/// bit.
+/// The points where two unmatched edges of the loops (`balance` from [`directed_edges`])
+/// cross properly, by crossing: both edges' `[a, b, x]`. Each point is computed from the two
+/// segments in a fixed order of their end points, so both edges, and every copy of them, get
+/// it bit for bit.
 fn crossing_points(ends: &[(&[P3], bool)], balance: &Balance) -> Vec<[[P3; 3]; 2]> {
     let Some(frame) = ends.iter().find_map(|(l, _)| SliceFrame::of_loop(l)) else {
         return Vec::new();

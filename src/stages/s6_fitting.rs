@@ -5,8 +5,8 @@
 //! crosses itself (or a fence: on a cap's ridge loop, or on a chain where its end loop meets a
 //! sibling's: [`s7_skinning::Crossings`]), also with the loops joined by fans
 //! ([`fan_tables`]), cut into segments ([`fit_segments`]), and with a curve halfway between a
-//! crossing band's loops ([`with_halfway_curves`]), each kept if it crosses less. Regions are fitted as they arrive, several at once, and leave in
-//! arrival order.
+//! crossing band's loops ([`with_halfway_curves`]), each kept if it crosses less. Regions are
+//! fitted as they arrive, several at once, and leave in arrival order.
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
