@@ -640,7 +640,7 @@ fn bits(p: &P3) -> [u64; 3] {
 }
 
 /// A directed edge by its points' bits.
-type EdgeKey = ([u64; 3], [u64; 3]);
+pub(crate) type EdgeKey = ([u64; 3], [u64; 3]);
 
 /// The edge between `a` and `b` either way round, its points in the order of their bits.
 fn undirected(a: P3, b: P3) -> (P3, P3) {
@@ -649,6 +649,13 @@ fn undirected(a: P3, b: P3) -> (P3, P3) {
     } else {
         (b, a)
     }
+}
+
+/// The edge between `a` and `b` either way round, by its points' bits in order: the key
+/// under which loops that share it, in either direction, find it.
+pub(crate) fn undirected_key(a: &P3, b: &P3) -> EdgeKey {
+    let (a, b) = undirected(*a, *b);
+    (bits(&a), bits(&b))
 }
 
 /// Each directed edge's uses minus its reverse's (see [`directed_edges`]).
@@ -757,27 +764,27 @@ fn seal_edges(mut balance: Balance, order: &[(P3, P3)]) -> Vec<Triangle> {
 /// patch reaching them from its own side (a branching's pieces of one intermediate contour).
 /// Each once, as `[a, b]` of the first loop that has it, in the loops' order.
 pub fn shared_edges(ends: &[(&[P3], bool)]) -> Vec<[P3; 2]> {
-    let loops: Vec<(Vec<P3>, bool)> = ends.iter().map(|(l, top)| (dedup_loop(l), *top)).collect();
-    let edges = |l: &[P3]| -> Vec<(P3, P3)> {
-        if l.len() < 2 {
-            return Vec::new();
-        }
-        (0..l.len()).map(|i| (l[i], l[(i + 1) % l.len()])).collect()
-    };
+    let loops: Vec<(Vec<(P3, P3)>, bool)> = ends
+        .iter()
+        .map(|(l, top)| {
+            let l = dedup_loop(l);
+            let m = if l.len() < 2 { 0 } else { l.len() };
+            ((0..m).map(|i| (l[i], l[(i + 1) % m])).collect(), *top)
+        })
+        .collect();
     let mut runs: std::collections::HashMap<EdgeKey, Vec<usize>> = Default::default();
-    for (k, (l, _)) in loops.iter().enumerate() {
-        for (a, b) in edges(l) {
-            runs.entry((bits(&a), bits(&b))).or_default().push(k);
+    for (k, (edges, _)) in loops.iter().enumerate() {
+        for (a, b) in edges {
+            runs.entry((bits(a), bits(b))).or_default().push(k);
         }
     }
     let mut seen = std::collections::HashSet::new();
     let mut out = Vec::new();
-    for (k, (l, top)) in loops.iter().enumerate() {
-        for (a, b) in edges(l) {
+    for (k, (edges, top)) in loops.iter().enumerate() {
+        for &(a, b) in edges {
             let against = runs.get(&(bits(&b), bits(&a)));
             let shared = against.is_some_and(|o| o.iter().any(|&j| j != k && loops[j].1 == *top));
-            let (x, y) = undirected(a, b);
-            if shared && seen.insert((bits(&x), bits(&y))) {
+            if shared && seen.insert(undirected_key(&a, &b)) {
                 out.push([a, b]);
             }
         }

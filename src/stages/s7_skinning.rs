@@ -3,6 +3,7 @@
 //! to that surface is measured (closest point, seeded at the point's curve parameter), which
 //! is what the report calls the surface error.
 
+use std::collections::HashSet;
 use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender};
@@ -14,7 +15,7 @@ use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
 use crate::geometry::polygon::signed_area;
 use crate::mesh::crossings::crossing_pairs;
-use crate::mesh::{tessellate_each, Triangle};
+use crate::mesh::{tessellate_each, undirected_key, EdgeKey, Triangle};
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, SliceFrame};
 use crate::{Error, Result};
@@ -209,15 +210,29 @@ fn cap_fence(lp: &[[f64; 3]], next: &[[f64; 3]]) -> Vec<Triangle> {
     if lp.len() < 3 || signed_area(&flat).abs() < FENCE_MIN_AREA_MM2 {
         return Vec::new();
     }
+    wall(
+        lp,
+        &frame,
+        FENCE_HEIGHT * (dot(*q, frame.normal()) - frame.height()),
+        |_| true,
+    )
+}
+
+/// Two triangles standing on each edge of the loop `lp` that `keep` takes, from the loop
+/// (its own vertices) to `rise` along `frame`'s normal: a fence for [`JudgedMesh`].
+fn wall(
+    lp: &[[f64; 3]],
+    frame: &SliceFrame,
+    rise: f64,
+    keep: impl Fn(&([f64; 3], [f64; 3])) -> bool,
+) -> Vec<Triangle> {
     let n = frame.normal();
-    let rise = FENCE_HEIGHT * (dot(*q, n) - frame.height());
     let up = |p: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|d| p[d] + rise * n[d]) };
     let m = lp.len();
     (0..m)
-        .flat_map(|i| {
-            let (a, b) = (lp[i], lp[(i + 1) % m]);
-            [[a, b, up(&b)], [a, up(&b), up(&a)]]
-        })
+        .map(|i| (lp[i], lp[(i + 1) % m]))
+        .filter(keep)
+        .flat_map(|(a, b)| [[a, b, up(&b)], [a, up(&b), up(&a)]])
         .collect()
 }
 
@@ -245,24 +260,11 @@ fn chain_fence(lp: &[[f64; 3]], shared: &[[[f64; 3]; 2]], next: &[[f64; 3]]) -> 
     if shared.is_empty() || lp.len() < 3 {
         return Vec::new();
     }
-    let key = |a: &[f64; 3], b: &[f64; 3]| {
-        let (a, b) = (a.map(f64::to_bits), b.map(f64::to_bits));
-        if a <= b {
-            (a, b)
-        } else {
-            (b, a)
-        }
-    };
-    let chains: std::collections::HashSet<_> = shared.iter().map(|[a, b]| key(a, b)).collect();
-    let n = frame.normal();
-    let rise = CHAIN_FENCE_HEIGHT * (dot(*q, n) - frame.height());
-    let up = |p: &[f64; 3]| -> [f64; 3] { std::array::from_fn(|d| p[d] + rise * n[d]) };
-    let m = lp.len();
-    (0..m)
-        .map(|i| (lp[i], lp[(i + 1) % m]))
-        .filter(|(a, b)| chains.contains(&key(a, b)))
-        .flat_map(|(a, b)| [[a, b, up(&b)], [a, up(&b), up(&a)]])
-        .collect()
+    let chains: HashSet<EdgeKey> = shared.iter().map(|[a, b]| undirected_key(a, b)).collect();
+    let rise = CHAIN_FENCE_HEIGHT * (dot(*q, frame.normal()) - frame.height());
+    wall(lp, &frame, rise, |(a, b)| {
+        chains.contains(&undirected_key(a, b))
+    })
 }
 
 /// Faces of the surface through `fitted`'s curves crossing another, or if none does, a
