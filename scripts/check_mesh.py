@@ -9,7 +9,8 @@ In: OUT_DIR/mesh.stl, and optionally TRUTH.json from `bskin phantom ... --truth 
   - with --truth: the volume is within --volume-tol (relative, default 0.01) of the analytic one;
   - with --self-intersections: no two faces intersect, other than along the edge or at the
     vertex they share (MeshLab's per-face self-intersection selection, after pymeshlab merges
-    identical vertices on loading the STL).
+    identical vertices on loading the STL), and report.json's own count (mesh.crossing_faces)
+    agrees that there are none or that there are some.
 Prints one line of figures. Exit status 0 when all checks pass, 1 otherwise.
 Usage: check_mesh.py OUT_DIR [--truth TRUTH.json] [--volume-tol 0.01] [--self-intersections]
 """
@@ -65,6 +66,13 @@ def main():
         line += f", {crossing} self-intersecting faces"
         if crossing:
             failures.append(f"{crossing} faces intersect other faces")
+        # bskin's own search (report.json, version 6 on) must not call clean what MeshLab
+        # does not, nor the other way round.
+        with open(os.path.join(a.out_dir, "report.json")) as f:
+            own = (json.load(f).get("mesh") or {}).get("crossing_faces")
+        line += f" (report.json: {own})"
+        if own is not None and (own == 0) != (crossing == 0):
+            failures.append(f"report.json counts {own} crossing faces, MeshLab {crossing}")
     print(line)
     for f in failures:
         print(f"FAIL: {f}", file=sys.stderr)

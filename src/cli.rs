@@ -118,6 +118,11 @@ pub struct RunArgs {
     /// within FRACTION × tolerance of the surfaces.
     #[arg(long, value_name = "FRACTION", default_value_t = bskin::config::DEFAULT_CHORDAL)]
     pub chordal: f64,
+    /// Skip searching the written mesh for faces crossing one another (report.json's
+    /// mesh.crossing_faces is then null). The search reads the mesh back slab by slab: a few
+    /// seconds on a CT head.
+    #[arg(long)]
+    pub no_crossing_check: bool,
     /// Most curves (slices) of one surface; a longer object is split into surfaces that share
     /// the contour where they meet (bounded memory on long series)
     #[arg(long, value_name = "N", default_value_t = bskin::config::DEFAULT_MAX_CURVES)]

@@ -107,6 +107,9 @@ pub struct OutputOptions {
     pub samples: bool,
     /// Coordinate system of every geometric output.
     pub coordinates: CoordinateSystem,
+    /// Whether the mesh written is searched for faces crossing one another (report.json's
+    /// `mesh.crossing_faces`; see [`crate::io::crossing_check`]).
+    pub check_crossings: bool,
 }
 
 impl Default for OutputOptions {
@@ -120,13 +123,14 @@ impl Default for OutputOptions {
             iges: true,
             samples: false,
             coordinates: CoordinateSystem::Lps,
+            check_crossings: true,
         }
     }
 }
 
 impl OutputOptions {
     /// From a comma-separated list of formats (`stl`, `obj`, `ply`, `3mf`, `step`, `igs`; `stp` and
-    /// `iges` are accepted too). Samples stay off; coordinates are LPS.
+    /// `iges` are accepted too). Samples stay off; coordinates are LPS; the crossing check is on.
     pub fn from_formats(list: &str) -> Result<Self, String> {
         let mut o = OutputOptions {
             stl: false,
@@ -137,6 +141,7 @@ impl OutputOptions {
             iges: false,
             samples: false,
             coordinates: CoordinateSystem::Lps,
+            check_crossings: true,
         };
         for f in list.split(',').map(str::trim).filter(|f| !f.is_empty()) {
             match f.to_ascii_lowercase().as_str() {

@@ -271,6 +271,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     config.outputs =
         OutputOptions::from_formats(&args.formats).map_err(|e| Error::usage("--formats", e))?;
     config.outputs.samples = args.write_samples;
+    config.outputs.check_crossings = !args.no_crossing_check;
     if args.ras {
         config.outputs.coordinates = CoordinateSystem::Ras;
     }
@@ -354,9 +355,12 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     })?;
 
     let surfaces = result.written.surfaces;
-    // A folding mesh first: the summary shows the first few warnings only.
-    let warnings: Vec<String> = bskin::io::report::fold_warning(&surfaces)
+    // A crossing or folding mesh first: the summary shows the first few warnings only.
+    let crossings = result.written.crossings;
+    let warnings: Vec<String> = (crossings.as_ref())
+        .and_then(bskin::io::report::crossing_warning)
         .into_iter()
+        .chain(bskin::io::report::fold_warning(&surfaces))
         .chain(ctl.warnings())
         .collect();
     let input_points_total: usize = surfaces.iter().map(|s| s.input_points).sum();
@@ -414,6 +418,8 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
                 seal_triangles: surfaces.iter().map(|s| s.seal_triangles).sum(),
                 folded_surfaces: surfaces.iter().filter(|s| s.folded_rows > 0).count(),
                 folded_rows: surfaces.iter().map(|s| s.folded_rows).sum(),
+                crossing_faces: crossings.as_ref().map(|c| c.crossing_faces),
+                crossings: crossings.map_or_else(Vec::new, |c| c.pairs),
             }),
         surfaces,
         files: result.written.files,

@@ -353,7 +353,7 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["coordinates"], "RAS");
-    assert_eq!(report["version"], 5);
+    assert_eq!(report["version"], 6);
     assert!(report["notes"].is_array());
     let files: Vec<&str> = report["files"]
         .as_array()
@@ -384,6 +384,11 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     assert_eq!(mesh["seal_triangles"].as_u64(), Some(sum("seal_triangles")));
     assert_eq!(mesh["folded_rows"].as_u64(), Some(sum("folded_rows")));
     assert_eq!(mesh["folded_surfaces"], 0);
+    // The mesh was searched for faces crossing one another (tests/mesh_watertight.rs compares
+    // the count with the whole mesh's): none on this phantom.
+    assert_eq!(mesh["crossing_faces"], 0);
+    assert_eq!(mesh["crossings"], serde_json::json!([]));
+    assert!(!stderr(&o).contains("cross another face"), "{}", stderr(&o));
     assert!(sum("mesh_rows") > 0);
     assert!(sum("triangles") > sum("seal_triangles"));
     assert!(!out.join("mesh.stl").exists());
@@ -406,7 +411,7 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
 }
 
 #[test]
-fn piped_contours_report_the_threshold_they_were_made_with() {
+fn piped_contours_report_the_threshold_they_were_made_with_and_a_check_skipped() {
     let c = bskin(&[
         "contours",
         testdata().to_str().unwrap(),
@@ -417,7 +422,15 @@ fn piped_contours_report_the_threshold_they_were_made_with() {
     assert!(c.status.success(), "{}", stderr(&c));
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("piped");
-    let o = bskin_with_stdin(&["run", "-", "-o", out.to_str().unwrap(), "-q"], &c.stdout);
+    let args = [
+        "run",
+        "-",
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--no-crossing-check",
+    ];
+    let o = bskin_with_stdin(&args, &c.stdout);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
@@ -425,4 +438,7 @@ fn piped_contours_report_the_threshold_they_were_made_with() {
         report["input"]["threshold"],
         serde_json::json!({"above": 250.0})
     );
+    // Not searched: null, not a count of 0.
+    assert!(report["mesh"]["crossing_faces"].is_null());
+    assert_eq!(report["mesh"]["crossings"], serde_json::json!([]));
 }

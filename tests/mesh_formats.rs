@@ -30,6 +30,7 @@ fn run(out: &Path, coordinates: CoordinateSystem) -> RunSummary {
         iges: true,
         samples: true,
         coordinates,
+        check_crossings: true,
     };
     run_dir(&testdata(), out, &config).expect("run")
 }

@@ -146,6 +146,13 @@ fn check_with(shape: &str, volume_tol: f64, extra: &[&str]) -> (f64, serde_json:
         .unwrap()
         .iter()
         .all(|s| s["folded_rows"] == 0 && s["mesh_rows"].as_u64() > Some(0)));
+    // The run's own crossing search, slab by slab, agrees with one over the whole mesh.stl.
+    let whole = bskin::mesh::crossings::crossing_faces(&read_stl(&out.join("mesh.stl")));
+    assert_eq!(
+        report["mesh"]["crossing_faces"].as_u64(),
+        Some(whole as u64)
+    );
+    assert_eq!(whole, 0, "{shape}: {}", report["mesh"]["crossings"]);
     (rel, report)
 }
 

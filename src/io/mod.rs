@@ -1,8 +1,9 @@
 //! Formats read and written: contour NDJSON, STL, OBJ, PLY, STEP, IGES, report and sample JSON, and
-//! atomic (write-then-rename) output files.
+//! atomic (write-then-rename) output files; the written mesh's crossing check.
 
 pub mod atomic;
 pub mod cad;
+pub mod crossing_check;
 pub mod iges;
 pub mod indexed;
 pub mod listing;

@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use crate::io::crossing_check::{CrossingSummary, SurfaceCrossing};
 use crate::io::ndjson::ThresholdRecord;
 use crate::section::SeriesSummary;
 use crate::stages::StageStats;
@@ -15,8 +16,9 @@ pub const FORMAT: &str = "bskin-report";
 /// surface `seal_triangles` added; `files` lists report.json too. 4: `notes` added (what needs
 /// no action, such as a split zone bridges joined whole, which version 3 listed as warnings).
 /// 5: per surface `mesh_rows` and `folded_rows`, and `mesh.folded_surfaces` and
-/// `mesh.folded_rows`: where the mesh folds through itself.
-pub const VERSION: u32 = 5;
+/// `mesh.folded_rows`: where the mesh folds through itself. 6: `mesh.crossing_faces` and
+/// `mesh.crossings`: faces of the written mesh crossing another, between surfaces too.
+pub const VERSION: u32 = 6;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -123,9 +125,16 @@ pub struct MeshReport {
     pub triangles: usize,
     pub seal_triangles: usize,
     /// Surfaces with a folded row, and their folded rows in all (per surface:
-    /// `folded_rows`). Crossings between different surfaces are not counted.
+    /// `folded_rows`). Crossings between different surfaces are not counted here.
     pub folded_surfaces: usize,
     pub folded_rows: usize,
+    /// Faces of the mesh, as `mesh.stl` holds it (single precision), crossing another face
+    /// that shares no vertex with them, within a surface or between two; null when the check
+    /// was turned off (`--no-crossing-check`).
+    pub crossing_faces: Option<u64>,
+    /// Per pair of surfaces (the same id twice: a surface through itself), their faces in
+    /// those crossings and where they lie on average; most faces first.
+    pub crossings: Vec<SurfaceCrossing>,
 }
 
 #[derive(Serialize, Debug, Clone)]
@@ -269,6 +278,40 @@ pub fn fold_warning(surfaces: &[SurfaceReport]) -> Option<String> {
     ))
 }
 
+/// Surface pairs named in [`crossing_warning`].
+const CROSSING_WARNING_PAIRS: usize = 3;
+
+/// The warning for a mesh whose faces cross one another: how many, and the pairs of surfaces
+/// with the most. `None` when none do.
+pub fn crossing_warning(found: &CrossingSummary) -> Option<String> {
+    if found.crossing_faces == 0 {
+        return None;
+    }
+    let worst: Vec<String> = found
+        .pairs
+        .iter()
+        .take(CROSSING_WARNING_PAIRS)
+        .map(|p| {
+            let [x, y, z] = p.at;
+            let which = match p.surfaces {
+                [a, b] if a == b => format!("surface {a} through itself"),
+                [a, b] => format!("surfaces {a} and {b}"),
+            };
+            format!(
+                "{which} ({} faces, about ({x:.1}, {y:.1}, {z:.1}))",
+                p.faces
+            )
+        })
+        .collect();
+    Some(format!(
+        "mesh: {} of {} faces cross another face, so the mesh is not a valid solid there \
+         (slicers and CAD may need to repair it; `mesh.crossings`); most: {}",
+        found.crossing_faces,
+        found.faces,
+        worst.join(", ")
+    ))
+}
+
 /// Peak resident set size of this process so far (Linux: VmHWM), in MB.
 pub fn peak_rss_mb() -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -302,6 +345,31 @@ mod tests {
             mesh_rows: rows,
             folded_rows: folded,
         }
+    }
+
+    #[test]
+    fn crossing_warning_names_the_pairs_with_most_faces_or_nothing() {
+        let pair = |a, b, faces| SurfaceCrossing {
+            surfaces: [a, b],
+            faces,
+            at: [1.25, -2.0, 30.04],
+        };
+        let mut found = CrossingSummary {
+            faces: 1000,
+            crossing_faces: 0,
+            pairs: Vec::new(),
+            slabs: 1,
+        };
+        assert_eq!(crossing_warning(&found), None);
+        found.crossing_faces = 14;
+        found.pairs = vec![pair(4, 4, 8), pair(2, 9, 4), pair(1, 3, 2), pair(5, 6, 2)];
+        assert_eq!(
+            crossing_warning(&found).unwrap(),
+            "mesh: 14 of 1000 faces cross another face, so the mesh is not a valid solid there \
+             (slicers and CAD may need to repair it; `mesh.crossings`); most: surface 4 through \
+             itself (8 faces, about (1.2, -2.0, 30.0)), surfaces 2 and 9 (4 faces, about \
+             (1.2, -2.0, 30.0)), surfaces 1 and 3 (2 faces, about (1.2, -2.0, 30.0))"
+        );
     }
 
     #[test]

@@ -9,9 +9,10 @@
 //! only touching do not count: the signs of orientation tests must be strict.
 //!
 //! Cost: a uniform grid of cells about the size of a face, each face tested against the faces
-//! in the cells its box covers.
+//! in the cells its box covers. A mesh too large to hold is checked slab by slab along z
+//! ([`slabs`], [`crossing_pairs_in_slab`]), each slab's faces read in turn.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use super::Triangle;
 use crate::bspline::vecops::{dist, sub};
@@ -72,6 +73,56 @@ pub fn crossing_pairs(faces: &[Triangle]) -> Vec<(usize, usize)> {
         }
     }
     pairs
+}
+
+/// A face's lowest and highest z.
+pub fn z_extent(t: &Triangle) -> (f64, f64) {
+    (
+        t[0][2].min(t[1][2]).min(t[2][2]),
+        t[0][2].max(t[1][2]).max(t[2][2]),
+    )
+}
+
+/// Whether a face with z extent `(low, high)` reaches into the slab `lo ≤ z < hi`, so that
+/// [`crossing_pairs_in_slab`] must be given it.
+pub fn reaches_slab((low, high): (f64, f64), (lo, hi): (f64, f64)) -> bool {
+    high >= lo && low < hi
+}
+
+/// [`crossing_pairs`] of `faces`, every face of a mesh that reaches into the slab `lo ≤ z <
+/// hi` ([`reaches_slab`]), keeping the pairs whose overlap along z starts in the slab: the
+/// higher of the two faces' lowest z lies in `[lo, hi)`. Two faces that cross overlap along z
+/// and both reach into the slab where their overlap starts, so over slabs that partition z
+/// every crossing pair of the mesh is found once.
+pub fn crossing_pairs_in_slab(faces: &[Triangle], (lo, hi): (f64, f64)) -> Vec<(usize, usize)> {
+    let mut pairs = crossing_pairs(faces);
+    pairs.retain(|&(i, j)| {
+        let start = z_extent(&faces[i]).0.max(z_extent(&faces[j]).0);
+        lo <= start && start < hi
+    });
+    pairs
+}
+
+/// Slabs `[lo, hi)` partitioning z (the first from −∞, the last to +∞) from the faces' count
+/// per bin of lowest z (`starts`: bin `k` is `k·bin ≤ z < (k+1)·bin`), cut at bin edges so
+/// that each slab's faces start in no more than `cap` of them unless one bin alone holds more.
+/// A slab also holds the faces reaching up into it from below: at most a band between two
+/// curves high, they add a fraction.
+pub fn slabs(starts: &BTreeMap<i64, u64>, bin: f64, cap: u64) -> Vec<(f64, f64)> {
+    let mut cuts = Vec::new();
+    let mut held = 0u64;
+    for (&k, &n) in starts {
+        if held > 0 && held + n > cap {
+            cuts.push(k as f64 * bin);
+            held = 0;
+        }
+        held += n;
+    }
+    let edges: Vec<f64> = std::iter::once(f64::NEG_INFINITY)
+        .chain(cuts)
+        .chain(std::iter::once(f64::INFINITY))
+        .collect();
+    edges.windows(2).map(|w| (w[0], w[1])).collect()
 }
 
 fn cell_size(faces: &[Triangle]) -> f64 {
@@ -185,6 +236,78 @@ mod tests {
             })
             .collect();
         assert_eq!(crossing_faces(&fan), 0);
+    }
+
+    /// Faces of a random soup, from a little linear congruential generator (fixed seeds:
+    /// the same soup every run).
+    fn soup(seed: u64, n: usize, size: f64) -> Vec<Triangle> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let c: [f64; 3] = std::array::from_fn(|_| next() * 10.0);
+                std::array::from_fn(|_| std::array::from_fn(|d| c[d] + (next() - 0.5) * size))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn slabs_find_every_crossing_pair_once() {
+        for (seed, cap) in [(1, 7), (2, 40), (3, 1), (4, 1_000)] {
+            let faces = soup(seed, 400, 2.0);
+            let mut whole = crossing_pairs(&faces);
+            whole.sort_unstable();
+            assert!(whole.len() > 50, "seed {seed}: a soup that crosses");
+            let bin = 0.5;
+            let mut starts = BTreeMap::new();
+            for t in &faces {
+                *starts
+                    .entry((z_extent(t).0 / bin).floor() as i64)
+                    .or_insert(0u64) += 1;
+            }
+            let slabs = slabs(&starts, bin, cap);
+            assert_eq!(slabs.len() > 1, cap < 400, "seed {seed}, cap {cap}");
+            let mut found = Vec::new();
+            for slab in slabs {
+                let (held, index): (Vec<Triangle>, Vec<usize>) = faces
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, t)| reaches_slab(z_extent(t), slab))
+                    .map(|(k, t)| (*t, k))
+                    .unzip();
+                found.extend(
+                    crossing_pairs_in_slab(&held, slab)
+                        .into_iter()
+                        .map(|(i, j)| (index[i], index[j])),
+                );
+            }
+            found.sort_unstable();
+            assert_eq!(found, whole, "seed {seed}, cap {cap}");
+        }
+    }
+
+    #[test]
+    fn slabs_cut_at_bin_edges_and_cover_all_z() {
+        let starts = BTreeMap::from([(-2, 3u64), (0, 3), (1, 3), (5, 10), (6, 1)]);
+        let s = slabs(&starts, 0.5, 6);
+        assert_eq!(
+            s,
+            vec![
+                (f64::NEG_INFINITY, 0.5),
+                (0.5, 2.5),
+                (2.5, 3.0),
+                (3.0, f64::INFINITY)
+            ]
+        );
+        assert_eq!(
+            slabs(&BTreeMap::new(), 0.5, 6),
+            vec![(f64::NEG_INFINITY, f64::INFINITY)]
+        );
     }
 
     #[test]

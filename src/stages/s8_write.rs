@@ -18,6 +18,7 @@ use crate::bspline::SkinnedSurface;
 use crate::config::{CoordinateSystem, OutputOptions};
 use crate::io::atomic::AtomicFile;
 use crate::io::cad::CadMeta;
+use crate::io::crossing_check::{CrossingCheck, CrossingSummary, SLAB_FACES};
 use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
 use crate::mesh::{tessellate_each, with_edge_points, Triangle};
@@ -37,6 +38,9 @@ pub const REPORT_FILE: &str = "report.json";
 pub struct Written {
     pub surfaces: Vec<SurfaceReport>,
     pub files: Vec<FileReport>,
+    /// The mesh's faces crossing one another; `None` when no mesh was written or the check
+    /// was turned off.
+    pub crossings: Option<CrossingSummary>,
     pub stats: StageStats,
 }
 
@@ -120,6 +124,10 @@ pub fn run(
     };
     let system = outputs.coordinates;
     let mut meshes = MeshWriters::create(out_dir, outputs)?;
+    let mut check = match meshes.any() && outputs.check_crossings {
+        true => Some(CrossingCheck::in_dir(out_dir).map_err(output_error(out_dir))?),
+        false => None,
+    };
     let keep = outputs.step || outputs.iges || outputs.samples;
     let mut kept: Vec<SkinnedSurface> = Vec::new();
     for s in input.iter() {
@@ -150,6 +158,15 @@ pub fn run(
             let (mut chunk, mut all) = (Vec::with_capacity(CHUNK), Vec::new());
             let mut failed: Option<Error> = None;
             let mut count = 0;
+            let id = report.id;
+            // mesh.stl and the crossing check take the triangles in the same chunks.
+            let mut stream = |chunk: &[Triangle]| -> Result<()> {
+                meshes.write_stl(chunk)?;
+                match check.as_mut() {
+                    Some(c) => c.add(id, chunk).map_err(output_error(out_dir)),
+                    None => Ok(()),
+                }
+            };
             let mut take = |t: Triangle| {
                 count += 1;
                 if whole {
@@ -158,7 +175,7 @@ pub fn run(
                 chunk.push(t);
                 if chunk.len() == CHUNK {
                     if failed.is_none() {
-                        failed = meshes.write_stl(&chunk).err();
+                        failed = stream(&chunk).err();
                     }
                     chunk.clear();
                 }
@@ -170,7 +187,7 @@ pub fn run(
             if let Some(e) = failed {
                 return Err(e);
             }
-            meshes.write_stl(&chunk)?;
+            stream(&chunk)?;
             meshes.write_indexed(report.id, &all)?;
             report.triangles = count;
             report.seal_triangles = s.region.seal.len();
@@ -189,6 +206,22 @@ pub fn run(
     // after handing on its last item: no file gets its final name until all have succeeded.
     upstream()?;
     let t = Instant::now();
+    // Before any file gets its final name: a check that fails fails the run.
+    if let Some(check) = check {
+        let mut search = check.search(SLAB_FACES).map_err(output_error(out_dir))?;
+        while search.next_slabs().map_err(output_error(out_dir))? {
+            ctl.check()?;
+        }
+        let found = search.summary();
+        tracing::info!(
+            "mesh: {} of {} faces cross another ({} slabs searched, {:.1} s)",
+            found.crossing_faces,
+            found.faces,
+            found.slabs,
+            t.elapsed().as_secs_f64()
+        );
+        written.crossings = Some(found);
+    }
     for path in meshes.commit()? {
         written.files.push(file_report(&path)?);
     }
