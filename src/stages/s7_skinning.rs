@@ -237,11 +237,12 @@ fn wall(
 }
 
 /// How far towards the next curve a fence on a shared chain stands, in that curve's
-/// distance. The surfaces crossing a sibling's did so within the last third of the band
-/// (skull 49 and 52); at a quarter, as on caps, as many crossing faces went (at
-/// `--chordal 0.4`, our count: skull 19 → 4, GE head 1 340 → 1 185, abdomen 219 → 217) for
-/// more control points (GE head +476 rather than +280, abdomen +1 854 rather than +1 454).
-const CHAIN_FENCE_HEIGHT: f64 = 0.1;
+/// distance. Skull 49 and 52 crossed within the tenth of the band nearest the plane, 206 and
+/// 208 (two slivers at slices 45–46) 29 % of the way up: at 0.1 the skull kept those 4
+/// faces, at 0.35 none (at `--chordal 0.4`, our count), for 5 fewer control points there,
+/// GE head 59 448 → 59 584 and abdomen 43 597 → 43 653 at the same crossing counts (1 185,
+/// 217). At a quarter the skull kept them too (GE head 59 644, abdomen 43 997 then).
+const CHAIN_FENCE_HEIGHT: f64 = 0.35;
 
 /// A wall standing on the chains where an intermediate contour's loop meets a sibling's on
 /// the same side of the plane (`shared`, see [`Region::shared_edges`]), towards the next
