@@ -105,9 +105,9 @@ pub fn crossing_pairs_in_slab(faces: &[Triangle], (lo, hi): (f64, f64)) -> Vec<(
 
 /// Slabs `[lo, hi)` partitioning z (the first from −∞, the last to +∞) from the faces' count
 /// per bin of lowest z (`starts`: bin `k` is `k·bin ≤ z < (k+1)·bin`), cut at bin edges so
-/// that each slab's faces start in no more than `cap` of them unless one bin alone holds more.
-/// A slab also holds the faces reaching up into it from below: at most a band between two
-/// curves high, they add a fraction.
+/// that at most `cap` faces start in each slab, unless one bin alone holds more. A slab also
+/// holds the faces reaching up into it from below: at most a band between two curves high,
+/// they add a fraction.
 pub fn slabs(starts: &BTreeMap<i64, u64>, bin: f64, cap: u64) -> Vec<(f64, f64)> {
     let mut cuts = Vec::new();
     let mut held = 0u64;
