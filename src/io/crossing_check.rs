@@ -64,8 +64,8 @@ pub struct CrossingSummary {
 /// The faces of a run's mesh as they are written; see the module doc.
 pub struct CrossingCheck {
     body: BufWriter<File>,
-    /// `(surface id, first face, faces)`, in order.
-    surfaces: Vec<(usize, u64, u64)>,
+    /// `(surface id, first face)`, in order.
+    surfaces: Vec<(usize, u64)>,
     faces: u64,
     /// Faces per bin of lowest z.
     starts: BTreeMap<i64, u64>,
@@ -92,9 +92,8 @@ impl CrossingCheck {
         if tris.is_empty() {
             return Ok(());
         }
-        match self.surfaces.last_mut() {
-            Some((last, _, n)) if *last == id => *n += tris.len() as u64,
-            _ => self.surfaces.push((id, self.faces, tris.len() as u64)),
+        if self.surfaces.last().map(|&(last, _)| last) != Some(id) {
+            self.surfaces.push((id, self.faces));
         }
         let mut bytes = Vec::with_capacity(tris.len() * RECORD);
         for t in tris {
@@ -102,7 +101,7 @@ impl CrossingCheck {
             for x in s.iter().flatten() {
                 bytes.extend_from_slice(&x.to_le_bytes());
             }
-            let low = z_extent(&s.map(|p| p.map(f64::from))).0;
+            let low = f64::from(s[0][2].min(s[1][2]).min(s[2][2]));
             if low.is_finite() {
                 *self
                     .starts
@@ -121,7 +120,6 @@ impl CrossingCheck {
             slabs: slabs(&self.starts, BIN_MM, cap),
             done: 0,
             file,
-            faces: self.faces,
             surfaces: self.surfaces,
             crossing: vec![false; self.faces as usize],
             by_pair: BTreeMap::new(),
@@ -135,8 +133,8 @@ pub struct CrossingSearch {
     slabs: Vec<(f64, f64)>,
     done: usize,
     file: File,
-    faces: u64,
-    surfaces: Vec<(usize, u64, u64)>,
+    surfaces: Vec<(usize, u64)>,
+    /// Per face of the mesh, whether it crosses another.
     crossing: Vec<bool>,
     /// Per pair of surfaces: their crossing faces and those faces' centroids (summed in face
     /// order at the end, so the mean does not depend on which slab found which).
@@ -164,7 +162,7 @@ impl CrossingSearch {
         let mut reader = BufReader::with_capacity(1 << 20, &self.file);
         let mut held: Vec<(Vec<Triangle>, Vec<u64>)> = vec![Default::default(); batch.len()];
         let mut record = [0u8; RECORD];
-        for k in 0..self.faces {
+        for k in 0..self.crossing.len() as u64 {
             reader.read_exact(&mut record)?;
             let x = |i: usize| {
                 let b = [0, 1, 2, 3].map(|j| record[4 * i + j]);
@@ -202,9 +200,7 @@ impl CrossingSearch {
     }
 
     fn surface_of(&self, face: u64) -> usize {
-        let k = self
-            .surfaces
-            .partition_point(|&(_, first, _)| first <= face);
+        let k = self.surfaces.partition_point(|&(_, first)| first <= face);
         self.surfaces[k.saturating_sub(1)].0
     }
 
@@ -228,7 +224,7 @@ impl CrossingSearch {
             .collect();
         pairs.sort_by(|x, y| y.faces.cmp(&x.faces).then(x.surfaces.cmp(&y.surfaces)));
         CrossingSummary {
-            faces: self.faces,
+            faces: self.crossing.len() as u64,
             crossing_faces: self.crossing.iter().filter(|&&c| c).count() as u64,
             pairs,
             slabs: self.done,

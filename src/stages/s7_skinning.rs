@@ -255,12 +255,13 @@ const CHAIN_FENCE_HEIGHT: f64 = 0.35;
 /// Only the shared chains: elsewhere the loop goes on into the surface beyond the plane (a
 /// fence on the whole loop cut the skull into 841 surfaces from 436, see [`cap_fence`]).
 fn chain_fence(lp: &[[f64; 3]], shared: &[[[f64; 3]; 2]], next: &[[f64; 3]]) -> Vec<Triangle> {
-    let (Some(frame), Some(q)) = (SliceFrame::of_loop(lp), next.first()) else {
-        return Vec::new();
-    };
+    // Most regions share no chain: no plane to fit for them, on every judgement.
     if shared.is_empty() || lp.len() < 3 {
         return Vec::new();
     }
+    let (Some(frame), Some(q)) = (SliceFrame::of_loop(lp), next.first()) else {
+        return Vec::new();
+    };
     let chains: HashSet<EdgeKey> = shared.iter().map(|[a, b]| undirected_key(a, b)).collect();
     let rise = CHAIN_FENCE_HEIGHT * (dot(*q, frame.normal()) - frame.height());
     wall(lp, &frame, rise, |(a, b)| {

@@ -124,9 +124,10 @@ pub fn run(
     };
     let system = outputs.coordinates;
     let mut meshes = MeshWriters::create(out_dir, outputs)?;
-    let mut check = match meshes.any() && outputs.check_crossings {
-        true => Some(CrossingCheck::in_dir(out_dir).map_err(output_error(out_dir))?),
-        false => None,
+    let mut check = if meshes.any() && outputs.check_crossings {
+        Some(CrossingCheck::in_dir(out_dir).map_err(output_error(out_dir))?)
+    } else {
+        None
     };
     let keep = outputs.step || outputs.iges || outputs.samples;
     let mut kept: Vec<SkinnedSurface> = Vec::new();
