@@ -357,7 +357,8 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
     let surfaces = result.written.surfaces;
     // A crossing or folding mesh first: the summary shows the first few warnings only.
     let crossings = result.written.crossings;
-    let warnings: Vec<String> = (crossings.as_ref())
+    let warnings: Vec<String> = crossings
+        .as_ref()
         .and_then(bskin::io::report::crossing_warning)
         .into_iter()
         .chain(bskin::io::report::fold_warning(&surfaces))

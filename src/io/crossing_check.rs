@@ -20,6 +20,7 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::io::stl::single;
 use crate::mesh::crossings::{crossing_pairs_in_slab, reaches_slab, slabs, z_extent};
 use crate::mesh::Triangle;
 
@@ -69,11 +70,6 @@ pub struct CrossingCheck {
     faces: u64,
     /// Faces per bin of lowest z.
     starts: BTreeMap<i64, u64>,
-}
-
-/// Rounded as `mesh.stl` stores it.
-fn single(t: &Triangle) -> [[f32; 3]; 3] {
-    t.map(|p| p.map(|x| x as f32))
 }
 
 impl CrossingCheck {

@@ -62,13 +62,20 @@ fn encode(tris: &[Triangle], buf: &mut Vec<u8>) {
         } else {
             [0.0; 3]
         };
-        for v in std::iter::once(&n).chain(t.iter()) {
-            for c in v {
-                buf.extend_from_slice(&(*c as f32).to_le_bytes());
-            }
+        for c in n
+            .iter()
+            .map(|&c| c as f32)
+            .chain(single(t).into_iter().flatten())
+        {
+            buf.extend_from_slice(&c.to_le_bytes());
         }
         buf.extend_from_slice(&[0, 0]);
     }
+}
+
+/// A triangle's vertices rounded as mesh.stl stores them.
+pub fn single(t: &Triangle) -> [[f32; 3]; 3] {
+    t.map(|p| p.map(|x| x as f32))
 }
 
 #[cfg(test)]
