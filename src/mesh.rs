@@ -18,6 +18,11 @@
 //! the chord deviation of the triangles, bounded by `(1/8)·|d|²·max|S_dd|` along every triangle
 //! edge direction `d` (second derivatives sampled on each patch), below the chordal tolerance.
 //! Rows are sampled at every curve's v̄_k, so the mesh passes through every fitted curve.
+//!
+//! Where a row loops through itself by less than the chordal tolerance (the surface folds
+//! below the mesh's resolution), the written mesh may cut the loop off at its crossing
+//! ([`RowLoops::Cut`]): the fold is not a shape of the object, and a mesh checker counts it
+//! as faces crossing one another.
 
 use crate::bspline::surface::SkinnedSurface;
 use crate::bspline::vecops::{add, dot, norm, scale, sub};
@@ -31,6 +36,9 @@ type P3 = [f64; 3];
 
 /// Most samples per u knot span or per v interval (a guard against pathological curvature).
 pub const MAX_SAMPLES_PER_SPAN: usize = 64;
+/// Most row samples a loop may span for [`RowLoops::Cut`] to cut it off: loops within the
+/// chordal tolerance span a few samples, since samples are spaced for that tolerance.
+const LOOP_REACH: usize = 32;
 /// Row samples closer than this fraction of the mean spacing are merged.
 const MIN_SAMPLE_GAP: f64 = 0.01;
 /// Most rounds of adding row samples between a slit's or ridge's two visits of a vertex.
@@ -44,12 +52,24 @@ const PROBES: usize = 5;
 /// within `chordal_mm` of the surface.
 pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64) -> Vec<Triangle> {
     let mut tris = Vec::new();
-    tessellate_each(s, bottom, top, chordal_mm, |t| tris.push(t));
+    tessellate_each(s, bottom, top, chordal_mm, RowLoops::Keep, |t| tris.push(t));
     tris
 }
 
-/// The interior rows of a tessellation (iso-curves v = const, as meshed) and how many of
-/// them cross themselves.
+/// What a tessellation does where an interior row loops through itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowLoops {
+    /// The rows as the surface has them: to judge a surface by its folds (stage 6).
+    Keep,
+    /// Each loop that spans at most [`LOOP_REACH`] samples, none of them further than the
+    /// chordal tolerance from where its edges cross, is cut off there: its samples move
+    /// onto the crossing point ([`cut_loops`]). For the mesh files: their vertices stay
+    /// within the chordal tolerance of the surface, and the fold leaves the mesh.
+    Cut,
+}
+
+/// The interior rows of a tessellation (iso-curves v = const, as meshed), how many of them
+/// cross themselves, and how many loops were cut off them ([`RowLoops::Cut`]).
 ///
 /// A surface's curves lie in parallel planes and its height along their normal is monotone in
 /// v (see [`crate::bspline::skinning`]), so each plane between its end curves meets it in one
@@ -57,23 +77,77 @@ pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64
 /// iso-curve crosses itself. Counting the mesh's rows that do so finds the folds a mesh
 /// checker sees (MeshLab's faces crossing their own surface) wherever a row passes through
 /// them, at the cost of one sweep per row. Crossings between different surfaces are not
-/// counted; nor is a surface whose first row has no area to take a plane from.
+/// counted; nor is a surface whose first row has no area to take a plane from. Rows are
+/// counted as meshed: after any loops were cut off.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Folds {
     pub rows: usize,
     pub folded: usize,
+    pub loops_cut: usize,
 }
 
 impl Folds {
-    fn count(&mut self, frame: &Option<SliceFrame>, row: &[P3]) {
+    /// Cuts `row`'s small loops if `loops` says so, then counts it.
+    fn mesh_row(
+        &mut self,
+        frame: &Option<SliceFrame>,
+        row: &mut [P3],
+        loops: RowLoops,
+        chordal_mm: f64,
+    ) {
         self.rows += 1;
-        if let Some(f) = frame {
-            let flat: Vec<Point> = row.iter().map(|&p| f.to_plane(p)).collect();
-            if crosses_itself(&flat) {
-                self.folded += 1;
-            }
+        let Some(f) = frame else { return };
+        let mut flat: Vec<Point> = row.iter().map(|&p| f.to_plane(p)).collect();
+        if loops == RowLoops::Cut {
+            self.loops_cut += cut_loops(f, row, &mut flat, chordal_mm);
+        }
+        if crosses_itself(&flat) {
+            self.folded += 1;
         }
     }
+}
+
+/// Cuts off the closed row's loops that [`RowLoops::Cut`] describes, `row` and `flat` (the
+/// row in `frame`'s plane) together; returns how many. Where edge i crosses edge j a few
+/// samples on, samples i+1..=j move to the crossing, each by at most `bound`: the edges
+/// either side shorten to the crossing and those between collapse to no length, so the row
+/// keeps its sample count (the triangles on them have two equal corners and are dropped,
+/// which keeps every other edge used once each way). Rows are scanned from sample 0 on,
+/// taking the nearest crossing edge first, so the result is the same on every run.
+pub fn cut_loops(frame: &SliceFrame, row: &mut [P3], flat: &mut [Point], bound: f64) -> usize {
+    let n = row.len();
+    let mut cut = 0;
+    let mut i = 0;
+    while i < n && n >= 4 {
+        let (a, b) = (flat[i], flat[(i + 1) % n]);
+        let mut next = i + 1;
+        for s in 2..LOOP_REACH.min(n - 1) {
+            let j = (i + s) % n;
+            let (c, d) = (flat[j], flat[(j + 1) % n]);
+            if boxes_disjoint(a, b, c, d) {
+                continue;
+            }
+            let (o3, o4) = (orient(c, d, a), orient(c, d, b));
+            if orient(a, b, c) * orient(a, b, d) >= 0.0 || o3 * o4 >= 0.0 {
+                continue;
+            }
+            let (p, q) = (row[i], row[(i + 1) % n]);
+            let x = add(&p, &scale(&sub(&q, &p), o3 / (o3 - o4)));
+            if (1..=s).any(|k| dist2(&row[(i + k) % n], &x) > bound * bound) {
+                continue;
+            }
+            let xf = frame.to_plane(x);
+            for k in 1..=s {
+                row[(i + k) % n] = x;
+                flat[(i + k) % n] = xf;
+            }
+            cut += 1;
+            next = i + s;
+            break;
+        }
+        i = next;
+    }
+    cut
 }
 
 /// [`tessellate`], handing each triangle to `emit` as it is made, row by row: only two rows
@@ -84,6 +158,7 @@ pub fn tessellate_each(
     bottom: &[P3],
     top: &[P3],
     chordal_mm: f64,
+    loops: RowLoops,
     mut emit: impl FnMut(Triangle),
 ) -> Folds {
     let (mut us, vs) = sample_params(s, chordal_mm);
@@ -140,11 +215,11 @@ pub fn tessellate_each(
     let mut lower = row(vs[1]);
     let frame = SliceFrame::of_loop(&lower);
     let mut folds = Folds::default();
-    folds.count(&frame, &lower);
+    folds.mesh_row(&frame, &mut lower, loops, chordal_mm);
     zip_end(&us, &bottom, &lower, false, &mut push);
     for &v in &vs[2..last] {
-        let upper = row(v);
-        folds.count(&frame, &upper);
+        let mut upper = row(v);
+        folds.mesh_row(&frame, &mut upper, loops, chordal_mm);
         for i in 0..nu {
             let i1 = (i + 1) % nu;
             let (a, b, c, d) = (lower[i], lower[i1], upper[i1], upper[i]);
@@ -1140,5 +1215,79 @@ mod tests {
         alone.extend((1..=3).map(|q| gap.0 + (gap.1 - gap.0) * q as f64 / 4.0));
         merge_samples(&mut alone, &[], period);
         assert!(!alone.iter().any(|&u| within(u, gap.0, gap.1, period)));
+    }
+
+    /// A 10 mm square at z = 3 traversed by 40 samples, with a loop `size` mm across on its
+    /// bottom side after sample 5: forward 2·size, back over the path, forward again.
+    fn looped_row(size: f64) -> Vec<P3> {
+        let mut row: Vec<P3> = (0..40)
+            .map(|k| {
+                let s = k as f64 / 10.0;
+                let (x, y) = match k / 10 {
+                    0 => (s, 0.0),
+                    1 => (1.0, s - 1.0),
+                    2 => (3.0 - s, 1.0),
+                    _ => (0.0, 4.0 - s),
+                };
+                [10.0 * x, 10.0 * y, 3.0]
+            })
+            .collect();
+        let p = row[5];
+        let at = |dx: f64, dy: f64| [p[0] + dx * size, p[1] + dy * size, 3.0];
+        let looped = [at(2.0, 0.0), at(1.5, 0.5), at(1.0, -0.5), at(3.0, 0.0)];
+        row.splice(6..6, looped);
+        row
+    }
+
+    fn flat(frame: &SliceFrame, row: &[P3]) -> Vec<Point> {
+        row.iter().map(|&p| frame.to_plane(p)).collect()
+    }
+
+    #[test]
+    fn a_loop_within_the_bound_is_cut_at_its_crossing_wherever_it_starts() {
+        let row = looped_row(0.02);
+        let frame = SliceFrame::of_loop(&row).unwrap();
+        assert!(crosses_itself(&flat(&frame, &row)));
+        for start in [0, 5, 7, 8, 43] {
+            let mut r = row.clone();
+            r.rotate_left(start);
+            let mut f = flat(&frame, &r);
+            assert_eq!(cut_loops(&frame, &mut r, &mut f, 0.05), 1, "start {start}");
+            assert!(!crosses_itself(&f), "start {start}");
+            assert_eq!(f, flat(&frame, &r));
+            r.rotate_right(start);
+            // Samples 6 and 7 (out along the loop and back) move onto the crossing, where
+            // edge 5–6 meets edge 7–8, 1.25 loop sizes along; nothing else moves.
+            let x = [row[5][0] + 0.025, row[5][1], 3.0];
+            for (k, (p, q)) in r.iter().zip(&row).enumerate() {
+                if k == 6 || k == 7 {
+                    assert!(dist2(p, &x) < 1e-20, "start {start}: {k} at {p:?}");
+                } else {
+                    assert_eq!(p, q, "start {start}: {k}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn loops_beyond_the_bound_and_simple_rows_are_left_as_they_are() {
+        for (row, bound) in [(looped_row(0.02), 0.01), (looped_row(2.0), 0.5)] {
+            let frame = SliceFrame::of_loop(&row).unwrap();
+            let (mut r, mut f) = (row.clone(), flat(&frame, &row));
+            assert_eq!(cut_loops(&frame, &mut r, &mut f, bound), 0);
+            assert_eq!(r, row);
+        }
+        // A star with 7 points, sampled finely: simple, so nothing to cut.
+        let star: Vec<P3> = (0..700)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 700.0;
+                let r = 10.0 + 6.0 * (7.0 * t).cos();
+                [r * t.cos(), r * t.sin(), -1.0]
+            })
+            .collect();
+        let frame = SliceFrame::of_loop(&star).unwrap();
+        let (mut r, mut f) = (star.clone(), flat(&frame, &star));
+        assert_eq!(cut_loops(&frame, &mut r, &mut f, 1.0), 0);
+        assert_eq!(r, star);
     }
 }

@@ -12,7 +12,7 @@ use bskin::bspline::fit::FitOptions;
 use bskin::bspline::skinning::{skin_ends, SkinEnd};
 use bskin::geometry::alignment::{align_starts, chord_join_folds, fan_match, fan_tables};
 use bskin::mesh::crossings::crossing_faces;
-use bskin::mesh::tessellate_each;
+use bskin::mesh::{tessellate_each, RowLoops};
 use bskin::region::{CurveOrigin, Region, RegionCurve};
 use bskin::stages::s6_fitting;
 use bskin::stages::s7_skinning::{crossings_of, crossings_of_all};
@@ -174,7 +174,7 @@ fn fanned_surface_fits_and_meshes_without_crossing_itself() {
     let faces = |curves| {
         let s = skin_ends(curves, [SkinEnd::Free, SkinEnd::Free]).unwrap();
         let mut out = Vec::new();
-        tessellate_each(&s, &lo, &hi, 0.2, |t| out.push(t));
+        tessellate_each(&s, &lo, &hi, 0.2, RowLoops::Keep, |t| out.push(t));
         crossing_faces(&out)
     };
     let (f, c) = (faces(&fanned.curves), faces(&chord.curves));

@@ -7,7 +7,10 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use bskin::bspline::{fit_common, skin, FitOptions};
-use bskin::mesh::{seal, seal_problem, tessellate, tessellate_each, with_edge_points, Triangle};
+use bskin::mesh::crossings::crossing_faces;
+use bskin::mesh::{
+    seal, seal_problem, tessellate, tessellate_each, with_edge_points, RowLoops, Triangle,
+};
 
 type P3 = [f64; 3];
 
@@ -29,6 +32,10 @@ fn vase() -> (Vec<Vec<P3>>, bskin::bspline::SkinnedSurface) {
     curves.push(vec![[0.0, 0.0, 22.0]]);
     let fit = fit_common(&curves, &FitOptions::new(0.05)).unwrap();
     (curves, skin(&fit.curves).unwrap())
+}
+
+fn dist(p: &P3, q: &P3) -> f64 {
+    (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt()
 }
 
 fn key(p: &P3) -> [u64; 3] {
@@ -351,7 +358,7 @@ fn folded_rows_are_the_rows_that_cross_themselves() {
         let (curves, s) = peanuts(shift);
         let (bottom, top) = (&curves[0], &curves[1]);
         let mut count = 0;
-        let f = tessellate_each(&s, bottom, top, 0.02, |_| count += 1);
+        let f = tessellate_each(&s, bottom, top, 0.02, RowLoops::Keep, |_| count += 1);
         assert!(f.rows > 0 && count > 0, "{f:?}");
         if folds {
             // The middle rows fold; the rows next to either loop are still peanuts.
@@ -362,7 +369,88 @@ fn folded_rows_are_the_rows_that_cross_themselves() {
     }
     // The vase's rows are circles.
     let (curves, s) = vase();
-    let f = tessellate_each(&s, &curves[0], &curves[4], 0.02, |_| {});
+    let f = tessellate_each(&s, &curves[0], &curves[4], 0.02, RowLoops::Keep, |_| {});
     assert_eq!(f.folded, 0, "{f:?}");
     assert!(f.rows > 0);
+}
+
+/// Circles of radius 10 at z = 0, 1 and 2 (40 control points each, uniform knots), the middle
+/// one with control points 10–13 bunched within 5`d` mm and doubling back along the circle, so
+/// that its curve makes a loop about 3`d` mm across: a surface folding through itself below
+/// the mesh's resolution. With the end loops sampled from its end curves.
+fn pleated(d: f64) -> (Vec<P3>, Vec<P3>, bskin::bspline::SkinnedSurface) {
+    use bskin::bspline::{ClosedCurve, PeriodicKnotVector};
+    let n = 40;
+    let circle = |z: f64| -> Vec<P3> {
+        (0..n)
+            .map(|j| {
+                let t = 2.0 * PI * j as f64 / n as f64;
+                [10.0 * t.cos(), 10.0 * t.sin(), z]
+            })
+            .collect()
+    };
+    let mut middle = circle(1.0);
+    let (p, t) = (middle[10], PI / 2.0);
+    let (along, out) = ([-t.sin(), t.cos(), 0.0], [t.cos(), t.sin(), 0.0]);
+    for (k, (a, b)) in [(0.0, 0.0), (5.0, 0.0), (-2.0, 0.1), (3.0, 0.0)]
+        .iter()
+        .enumerate()
+    {
+        middle[10 + k] = std::array::from_fn(|c| p[c] + d * (a * along[c] + b * out[c]));
+    }
+    let knots = PeriodicKnotVector::uniform(n).unwrap();
+    let curves: Vec<ClosedCurve<3>> = [circle(0.0), middle, circle(2.0)]
+        .into_iter()
+        .map(|c| ClosedCurve::try_new(knots.clone(), c).unwrap())
+        .collect();
+    let s = skin(&curves).unwrap();
+    let period = s.u_knots().period();
+    let end = |v: f64| -> Vec<P3> {
+        (0..400)
+            .map(|j| s.eval(period * j as f64 / 400.0, v))
+            .collect()
+    };
+    let vb = s.v_bar();
+    (end(vb[0]), end(vb[vb.len() - 1]), s)
+}
+
+#[test]
+fn loops_within_the_chordal_tolerance_are_cut_off_and_the_mesh_stays_closed() {
+    let chordal = 0.05;
+    for (d, within) in [(0.005, true), (0.01, true), (0.05, false)] {
+        let (bottom, top, s) = pleated(d);
+        let mesh = |loops| {
+            let mut tris = Vec::new();
+            let f = tessellate_each(&s, &bottom, &top, chordal, loops, |t| tris.push(t));
+            (f, tris)
+        };
+        let ((kept, as_is), (cut, meshed)) = (mesh(RowLoops::Keep), mesh(RowLoops::Cut));
+        assert!(kept.folded > 0 && kept.loops_cut == 0, "d {d}: {kept:?}");
+        if !within {
+            // A loop of 0.15 mm is a fold the mesh shows (the rows near its tip, where it
+            // narrows, lose theirs).
+            assert!(cut.folded > 0, "d {d}: {cut:?}");
+            continue;
+        }
+        assert!(cut.loops_cut > 0 && cut.folded == 0, "d {d}: {cut:?}");
+        assert!(
+            crossing_faces(&as_is) > 0 && crossing_faces(&meshed) == 0,
+            "d {d}"
+        );
+        // Open only along the end loops, as before; a few triangles fewer (those with two
+        // corners on a cut loop).
+        assert_eq!(open_edges(&meshed), open_edges(&as_is), "d {d}");
+        assert!(meshed.len() < as_is.len());
+        // The new vertices are the loops' crossings: within the chordal tolerance of a
+        // vertex the rows had.
+        let old: std::collections::HashSet<[u64; 3]> = as_is.iter().flatten().map(key).collect();
+        for p in meshed.iter().flatten().filter(|p| !old.contains(&key(p))) {
+            let near = as_is
+                .iter()
+                .flatten()
+                .map(|q| dist(p, q))
+                .fold(f64::INFINITY, f64::min);
+            assert!(near <= chordal, "d {d}: {p:?} is {near} mm from the rows");
+        }
+    }
 }

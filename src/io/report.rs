@@ -1,4 +1,4 @@
-//! `report.json`, version 5: what a `bskin run` read, made and measured. Documented field by
+//! `report.json`, version 7: what a `bskin run` read, made and measured. Documented field by
 //! field in the README. Floating-point values are as computed (shortest round-trip form), so
 //! the same input gives the same bytes, except for the timing and memory fields (and so
 //! report.json's own size).
@@ -17,8 +17,10 @@ pub const FORMAT: &str = "bskin-report";
 /// no action, such as a split zone bridges joined whole, which version 3 listed as warnings).
 /// 5: per surface `mesh_rows` and `folded_rows`, and `mesh.folded_surfaces` and
 /// `mesh.folded_rows`: where the mesh folds through itself. 6: `mesh.crossing_faces` and
-/// `mesh.crossings`: faces of the written mesh crossing another, between surfaces too.
-pub const VERSION: u32 = 6;
+/// `mesh.crossings`: faces of the written mesh crossing another, between surfaces too. 7: per
+/// surface `row_loops_cut` and `mesh.row_loops_cut`: loops within the chordal tolerance cut off
+/// the mesh's rows (`folded_rows` counts the rows as meshed, after the cuts).
+pub const VERSION: u32 = 7;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -112,6 +114,9 @@ pub struct SurfaceReport {
     /// ([`crate::mesh::Folds`]). 0 and 0 when no mesh file was written.
     pub mesh_rows: usize,
     pub folded_rows: usize,
+    /// Loops within the chordal tolerance cut off its rows ([`crate::mesh::RowLoops::Cut`]):
+    /// folds below the mesh's resolution, which its mesh leaves out.
+    pub row_loops_cut: usize,
 }
 
 /// How the mesh files were tessellated; absent when no mesh file was asked for.
@@ -120,7 +125,8 @@ pub struct MeshReport {
     /// `--chordal`: the chordal tolerance as a fraction of the fitting tolerance.
     pub chordal_fraction: f64,
     /// The chordal tolerance: triangles stay within it of the surfaces (mm), except up to the
-    /// first curve from a shared end loop, where they move onto the loop.
+    /// first curve from a shared end loop, where they move onto the loop, and where a row's
+    /// loop is cut off (`row_loops_cut`), whose vertices move by at most this much.
     pub chordal_mm: f64,
     pub triangles: usize,
     pub seal_triangles: usize,
@@ -128,6 +134,8 @@ pub struct MeshReport {
     /// `folded_rows`). Crossings between different surfaces are not counted here.
     pub folded_surfaces: usize,
     pub folded_rows: usize,
+    /// Loops cut off rows in all (per surface: `row_loops_cut`).
+    pub row_loops_cut: usize,
     /// Faces of the mesh, as `mesh.stl` holds it (single precision), crossing another face
     /// that shares no vertex with them, within a surface or between two; null when the check
     /// was turned off (`--no-crossing-check`).
@@ -344,6 +352,7 @@ mod tests {
             seal_triangles: 0,
             mesh_rows: rows,
             folded_rows: folded,
+            row_loops_cut: 0,
         }
     }
 

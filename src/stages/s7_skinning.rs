@@ -15,7 +15,7 @@ use crate::bspline::skinning::{skin_ends, SkinEnd};
 use crate::bspline::surface::SkinnedSurface;
 use crate::geometry::polygon::signed_area;
 use crate::mesh::crossings::crossing_pairs;
-use crate::mesh::{tessellate_each, undirected_key, EdgeKey, Triangle};
+use crate::mesh::{tessellate_each, undirected_key, EdgeKey, RowLoops, Triangle};
 use crate::region::{CurveOrigin, Region, RegionCurve};
 use crate::section::{dot, SliceFrame};
 use crate::{Error, Result};
@@ -132,7 +132,9 @@ impl JudgedMesh {
         let c = &fitted.region.curves;
         let (bottom, top) = (&c[0].points, &c[c.len() - 1].points);
         let chordal = JUDGE_CHORDAL * tolerance;
-        tessellate_each(&surface, bottom, top, chordal, |t| self.faces.push(t));
+        tessellate_each(&surface, bottom, top, chordal, RowLoops::Keep, |t| {
+            self.faces.push(t)
+        });
         for (end, next) in [(0, 1), (c.len() - 1, c.len().saturating_sub(2))] {
             if end == next {
                 continue;

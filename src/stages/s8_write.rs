@@ -21,7 +21,7 @@ use crate::io::cad::CadMeta;
 use crate::io::crossing_check::{CrossingCheck, CrossingSummary, SLAB_FACES};
 use crate::io::meshes::MeshWriters;
 use crate::io::report::{FileReport, Report, SurfaceReport};
-use crate::mesh::{tessellate_each, with_edge_points, Triangle};
+use crate::mesh::{tessellate_each, with_edge_points, RowLoops, Triangle};
 use crate::region::{CurveOrigin, RegionCurve};
 use crate::{Error, Result};
 
@@ -103,6 +103,7 @@ pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
         seal_triangles: 0,
         mesh_rows: 0,
         folded_rows: 0,
+        row_loops_cut: 0,
     }
 }
 
@@ -181,7 +182,14 @@ pub fn run(
                     chunk.clear();
                 }
             };
-            let folds = tessellate_each(&surface, &map(&bottom), &map(&top), chordal_mm, &mut take);
+            let folds = tessellate_each(
+                &surface,
+                &map(&bottom),
+                &map(&top),
+                chordal_mm,
+                RowLoops::Cut,
+                &mut take,
+            );
             for t in &s.region.seal {
                 take(t.map(|p| system.from_lps(p)));
             }
@@ -194,6 +202,7 @@ pub fn run(
             report.seal_triangles = s.region.seal.len();
             report.mesh_rows = folds.rows;
             report.folded_rows = folds.folded;
+            report.row_loops_cut = folds.loops_cut;
         }
         written.surfaces.push(report);
         if keep {
