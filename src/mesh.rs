@@ -36,8 +36,8 @@ type P3 = [f64; 3];
 
 /// Most samples per u knot span or per v interval (a guard against pathological curvature).
 pub const MAX_SAMPLES_PER_SPAN: usize = 64;
-/// Most row samples a loop may span for [`RowLoops::Cut`] to cut it off: loops within the
-/// chordal tolerance span a few samples, since samples are spaced for that tolerance.
+/// [`RowLoops::Cut`] cuts off loops of fewer samples than this: loops within the chordal
+/// tolerance span a few samples, since samples are spaced for that tolerance.
 const LOOP_REACH: usize = 32;
 /// Row samples closer than this fraction of the mean spacing are merged.
 const MIN_SAMPLE_GAP: f64 = 0.01;
@@ -61,7 +61,7 @@ pub fn tessellate(s: &SkinnedSurface, bottom: &[P3], top: &[P3], chordal_mm: f64
 pub enum RowLoops {
     /// The rows as the surface has them: to judge a surface by its folds (stage 6).
     Keep,
-    /// Each loop that spans at most [`LOOP_REACH`] samples, none of them further than the
+    /// Each loop of fewer than [`LOOP_REACH`] samples, none of them further than the
     /// chordal tolerance from where its edges cross, is cut off there: its samples move
     /// onto the crossing point ([`cut_loops`]). For the mesh files: their vertices stay
     /// within the chordal tolerance of the surface, and the fold leaves the mesh.
