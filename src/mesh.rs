@@ -26,7 +26,7 @@
 
 use crate::bspline::surface::SkinnedSurface;
 use crate::bspline::vecops::{add, dot, norm, scale, sub};
-use crate::geometry::polygon::{boxes_disjoint, crosses_itself, orient, Point};
+use crate::geometry::polygon::{crosses_itself, orient, proper_crossing, Point};
 use crate::section::SliceFrame;
 
 pub mod crossings;
@@ -97,7 +97,7 @@ impl Folds {
     ) {
         self.rows += 1;
         let Some(f) = frame else { return };
-        let mut flat: Vec<Point> = row.iter().map(|&p| f.to_plane(p)).collect();
+        let mut flat = in_plane(f, row);
         if loops == RowLoops::Cut {
             self.loops_cut += cut_loops(f, row, &mut flat, chordal_mm);
         }
@@ -105,6 +105,11 @@ impl Folds {
             self.folded += 1;
         }
     }
+}
+
+/// `row`'s points in `frame`'s plane.
+fn in_plane(frame: &SliceFrame, row: &[P3]) -> Vec<Point> {
+    row.iter().map(|&p| frame.to_plane(p)).collect()
 }
 
 /// Cuts off the closed row's loops that [`RowLoops::Cut`] describes, `row` and `flat` (the
@@ -116,23 +121,21 @@ impl Folds {
 /// taking the nearest crossing edge first, so the result is the same on every run.
 pub fn cut_loops(frame: &SliceFrame, row: &mut [P3], flat: &mut [Point], bound: f64) -> usize {
     let n = row.len();
+    if n < 4 {
+        return 0;
+    }
     let mut cut = 0;
     let mut i = 0;
-    while i < n && n >= 4 {
+    while i < n {
         let (a, b) = (flat[i], flat[(i + 1) % n]);
         let mut next = i + 1;
         for s in 2..LOOP_REACH.min(n - 1) {
             let j = (i + s) % n;
-            let (c, d) = (flat[j], flat[(j + 1) % n]);
-            if boxes_disjoint(a, b, c, d) {
+            let Some(along) = proper_crossing(a, b, flat[j], flat[(j + 1) % n]) else {
                 continue;
-            }
-            let (o3, o4) = (orient(c, d, a), orient(c, d, b));
-            if orient(a, b, c) * orient(a, b, d) >= 0.0 || o3 * o4 >= 0.0 {
-                continue;
-            }
+            };
             let (p, q) = (row[i], row[(i + 1) % n]);
-            let x = add(&p, &scale(&sub(&q, &p), o3 / (o3 - o4)));
+            let x = add(&p, &scale(&sub(&q, &p), along));
             if (1..=s).any(|k| dist2(&row[(i + k) % n], &x) > bound * bound) {
                 continue;
             }
@@ -995,9 +998,6 @@ fn crossing_points(ends: &[(&[P3], bool)], balance: &Balance) -> Vec<[[P3; 3]; 2
             .iter()
             .take_while(|f| f.1[0][0].min(f.1[1][0]) <= high)
         {
-            if boxes_disjoint(e.1[0], e.1[1], f.1[0], f.1[1]) {
-                continue;
-            }
             let (s, t) = if (bits(&e.0[0]), bits(&e.0[1])) <= (bits(&f.0[0]), bits(&f.0[1])) {
                 (e, f)
             } else {
@@ -1005,13 +1005,10 @@ fn crossing_points(ends: &[(&[P3], bool)], balance: &Balance) -> Vec<[[P3; 3]; 2
             };
             let ([p, q], [p2, q2]) = *s;
             let ([r, u], [r2, u2]) = *t;
-            let (or, ou) = (orient(p2, q2, r2), orient(p2, q2, u2));
-            let (op, oq) = (orient(r2, u2, p2), orient(r2, u2, q2));
             // A proper crossing only: touching, shared ends and collinear overlaps are not.
-            if !(or * ou < 0.0 && op * oq < 0.0) {
+            let Some(along) = proper_crossing(p2, q2, r2, u2) else {
                 continue;
-            }
-            let along = op / (op - oq);
+            };
             let x: P3 = std::array::from_fn(|d| p[d] + along * (q[d] - p[d]));
             found.push([[p, q, x], [r, u, x]]);
         }
@@ -1239,22 +1236,18 @@ mod tests {
         row
     }
 
-    fn flat(frame: &SliceFrame, row: &[P3]) -> Vec<Point> {
-        row.iter().map(|&p| frame.to_plane(p)).collect()
-    }
-
     #[test]
     fn a_loop_within_the_bound_is_cut_at_its_crossing_wherever_it_starts() {
         let row = looped_row(0.02);
         let frame = SliceFrame::of_loop(&row).unwrap();
-        assert!(crosses_itself(&flat(&frame, &row)));
+        assert!(crosses_itself(&in_plane(&frame, &row)));
         for start in [0, 5, 7, 8, 43] {
             let mut r = row.clone();
             r.rotate_left(start);
-            let mut f = flat(&frame, &r);
+            let mut f = in_plane(&frame, &r);
             assert_eq!(cut_loops(&frame, &mut r, &mut f, 0.05), 1, "start {start}");
             assert!(!crosses_itself(&f), "start {start}");
-            assert_eq!(f, flat(&frame, &r));
+            assert_eq!(f, in_plane(&frame, &r));
             r.rotate_right(start);
             // Samples 6 and 7 (out along the loop and back) move onto the crossing, where
             // edge 5–6 meets edge 7–8, 1.25 loop sizes along; nothing else moves.
@@ -1273,7 +1266,7 @@ mod tests {
     fn loops_beyond_the_bound_and_simple_rows_are_left_as_they_are() {
         for (row, bound) in [(looped_row(0.02), 0.01), (looped_row(2.0), 0.5)] {
             let frame = SliceFrame::of_loop(&row).unwrap();
-            let (mut r, mut f) = (row.clone(), flat(&frame, &row));
+            let (mut r, mut f) = (row.clone(), in_plane(&frame, &row));
             assert_eq!(cut_loops(&frame, &mut r, &mut f, bound), 0);
             assert_eq!(r, row);
         }
@@ -1286,7 +1279,7 @@ mod tests {
             })
             .collect();
         let frame = SliceFrame::of_loop(&star).unwrap();
-        let (mut r, mut f) = (star.clone(), flat(&frame, &star));
+        let (mut r, mut f) = (star.clone(), in_plane(&frame, &star));
         assert_eq!(cut_loops(&frame, &mut r, &mut f, 1.0), 0);
         assert_eq!(r, star);
     }

@@ -506,11 +506,19 @@ pub fn proper_crossings(pts: &[Point], limit: usize) -> usize {
     }
     edges_meeting(pts, limit, |i, j, (a, b), (c, d)| {
         let adjacent = (i + 1) % n == j || (j + 1) % n == i;
-        !adjacent
-            && !boxes_disjoint(a, b, c, d)
-            && orient(a, b, c) * orient(a, b, d) < 0.0
-            && orient(c, d, a) * orient(c, d, b) < 0.0
+        !adjacent && proper_crossing(a, b, c, d).is_some()
     })
+}
+
+/// Where segment ab crosses segment cd properly (each passes strictly through the other:
+/// touching, shared ends and collinear overlaps are not crossings), as the fraction of the way
+/// from a to b; `None` if it does not.
+pub fn proper_crossing(a: Point, b: Point, c: Point, d: Point) -> Option<f64> {
+    if boxes_disjoint(a, b, c, d) {
+        return None;
+    }
+    let (oa, ob) = (orient(c, d, a), orient(c, d, b));
+    (orient(a, b, c) * orient(a, b, d) < 0.0 && oa * ob < 0.0).then(|| oa / (oa - ob))
 }
 
 /// Whether `meet(i, j, edge i, edge j)` is false for every pair of edges whose x-ranges
