@@ -95,8 +95,15 @@ fn init_logging(verbose: u8, quiet: bool) {
         (false, 1) => "info",
         _ => "debug",
     };
+    // The stages' warnings stream only from `-v` on: by default the summary lists each kind
+    // once, so a run fits one screen whatever the series.
+    let warnings = if verbose == 0 { "off" } else { level };
+    let directives = format!(
+        "bskin={level},{}={warnings}",
+        bskin::stages::WARNINGS_TARGET
+    );
     let filter = tracing_subscriber::EnvFilter::try_from_env("BSKIN_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("bskin={level}")));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(directives));
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

@@ -443,3 +443,84 @@ fn piped_contours_report_the_threshold_they_were_made_with_and_a_check_skipped()
     assert!(report["mesh"]["crossing_faces"].is_null());
     assert_eq!(report["mesh"]["crossings"], serde_json::json!([]));
 }
+
+/// A contour stream whose middle slices hold two overlapping squares: every transition
+/// warns (overlapping contours, split zones, holes filled), several times of each kind.
+fn overlapping_squares_stream() -> Vec<u8> {
+    let c = bskin(&["contours", testdata().to_str().unwrap(), "-q"]);
+    assert!(c.status.success(), "{}", stderr(&c));
+    let first = c.stdout.split(|&b| b == b'\n').next().unwrap();
+    let mut header: serde_json::Value = serde_json::from_slice(first).unwrap();
+    header["slices"] = serde_json::json!(4);
+    header["series"]["slices"] = serde_json::json!(4);
+    let square = |cx: f64, r: f64| serde_json::json!({"points": [[cx - r, -r], [cx + r, -r], [cx + r, r], [cx - r, r]], "hole": false});
+    let mut lines = vec![header.to_string()];
+    let slices = [
+        vec![square(0.0, 10.0)],
+        vec![square(-6.0, 8.0), square(6.0, 8.0)],
+        vec![square(-6.0, 8.0), square(6.0, 8.0)],
+        vec![square(0.0, 10.0)],
+    ];
+    for (i, contours) in slices.iter().enumerate() {
+        let slice = serde_json::json!({"type": "slice", "index": i,
+            "origin": [0.0, 0.0, 2.0 * i as f64], "row": [1.0, 0.0, 0.0], "col": [0.0, 1.0, 0.0],
+            "contours": contours});
+        lines.push(slice.to_string());
+    }
+    lines.push(
+        serde_json::json!({"type": "end", "slices": 4, "contours": 6, "points": 24}).to_string(),
+    );
+    (lines.join("\n") + "\n").into_bytes()
+}
+
+#[test]
+fn warnings_stay_in_the_summary_one_line_per_kind_unless_verbose() {
+    let stream = overlapping_squares_stream();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("default");
+    let o = bskin_with_stdin(&["run", "-", "-o", out.to_str().unwrap()], &stream);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let warnings: Vec<&str> = report["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    let overlaps = warnings
+        .iter()
+        .filter(|w| w.ends_with("the section is expected to consist of disjoint contours"))
+        .count();
+    assert!(overlaps >= 3, "{warnings:?}");
+    let e = stderr(&o);
+    // No log lines streamed before the summary: every line is the summary's.
+    assert!(e.lines().all(|l| l.starts_with("bskin: ")), "{e}");
+    assert!(e.lines().count() <= 14, "{e}");
+    // Each kind once, with how many more are like it; the kinds left out are counted.
+    let count_after = |line: &str, before: &str| -> usize {
+        line.split(before)
+            .nth(1)
+            .map_or(0, |rest| rest.split(' ').next().unwrap().parse().unwrap())
+    };
+    let mut accounted = 0;
+    for line in e.lines() {
+        if line.starts_with("bskin: warning: ") {
+            accounted += 1 + count_after(line, "(and ");
+        } else if line.starts_with("bskin: … and ") {
+            accounted += count_after(line, "… and ");
+        }
+    }
+    assert_eq!(accounted, warnings.len(), "{e}");
+    assert!(e.lines().count() < warnings.len(), "{e}");
+
+    // `-v` streams each warning as it happens.
+    let loud = tmp.path().join("verbose");
+    let v = bskin_with_stdin(&["run", "-", "-o", loud.to_str().unwrap(), "-v"], &stream);
+    assert!(v.status.success(), "{}", stderr(&v));
+    let streamed = stderr(&v)
+        .lines()
+        .filter(|l| l.contains("WARN") && l.contains("overlap ("))
+        .count();
+    assert_eq!(streamed, overlaps, "{}", stderr(&v));
+}

@@ -158,8 +158,47 @@ pub struct Timings {
     pub stages: Vec<StageStats>,
 }
 
-/// Warnings listed in the human summary; the rest are counted (all are in report.json).
-const SUMMARY_WARNINGS: usize = 5;
+/// Kinds of warning listed in the human summary, each by its first warning and how many more
+/// are like it; further kinds are counted (every warning is in report.json).
+const SUMMARY_KINDS: usize = 6;
+
+/// A warning's kind: its text with every number replaced by `#`, so the same message about
+/// other slices, contours, points or areas is the same kind ("slices #–#: lower contour #: its
+/// zone meets the intermediate section (t = #) in # pieces; …").
+fn warning_kind(warning: &str) -> String {
+    let chars: Vec<char> = warning.chars().collect();
+    let mut kind = String::with_capacity(warning.len());
+    let mut in_number = false;
+    for (i, &c) in chars.iter().enumerate() {
+        let digit_next = chars.get(i + 1).is_some_and(|n| n.is_ascii_digit());
+        let numeric = c.is_ascii_digit()
+            || (in_number && c == '.' && digit_next)
+            || ((c == '-' || c == '−')
+                && digit_next
+                && (i == 0 || !chars[i - 1].is_alphanumeric()));
+        if !numeric {
+            kind.push(c);
+        } else if !in_number {
+            kind.push('#');
+        }
+        in_number = numeric;
+    }
+    kind
+}
+
+/// The warnings grouped by kind, in the order each kind first appears: its first warning
+/// and how many there are.
+fn warning_kinds(warnings: &[String]) -> Vec<(&str, usize)> {
+    let mut kinds: Vec<(String, &str, usize)> = Vec::new();
+    for w in warnings {
+        let kind = warning_kind(w);
+        match kinds.iter_mut().find(|k| k.0 == kind) {
+            Some(k) => k.2 += 1,
+            None => kinds.push((kind, w, 1)),
+        }
+    }
+    kinds.into_iter().map(|(_, first, n)| (first, n)).collect()
+}
 
 impl Report {
     /// The human summary `bskin run` prints on stderr: a few lines whatever the number of
@@ -222,14 +261,19 @@ impl Report {
             .collect();
         files.push("report.json".into());
         let _ = writeln!(s, "bskin: wrote {} in {dir}", files.join(", "));
-        for w in self.warnings.iter().take(SUMMARY_WARNINGS) {
-            let _ = writeln!(s, "bskin: warning: {w}");
+        let kinds = warning_kinds(&self.warnings);
+        for &(first, n) in kinds.iter().take(SUMMARY_KINDS) {
+            let _ = match n {
+                1 => writeln!(s, "bskin: warning: {first}"),
+                _ => writeln!(s, "bskin: warning: {first} (and {} more like it)", n - 1),
+            };
         }
-        if self.warnings.len() > SUMMARY_WARNINGS {
+        if kinds.len() > SUMMARY_KINDS {
+            let rest: usize = kinds[SUMMARY_KINDS..].iter().map(|k| k.1).sum();
             let _ = writeln!(
                 s,
-                "bskin: … and {} more warning(s) in report.json",
-                self.warnings.len() - SUMMARY_WARNINGS
+                "bskin: … and {rest} more warning(s) of {} other kind(s) in report.json",
+                kinds.len() - SUMMARY_KINDS
             );
         }
         if !self.notes.is_empty() {
@@ -378,6 +422,91 @@ mod tests {
              (slicers and CAD may need to repair it; `mesh.crossings`); most: surface 4 through \
              itself (8 faces, about (1.2, -2.0, 30.0)), surfaces 2 and 9 (4 faces, about \
              (1.2, -2.0, 30.0)), surfaces 1 and 3 (2 faces, about (1.2, -2.0, 30.0))"
+        );
+    }
+
+    #[test]
+    fn warnings_of_one_kind_differ_only_in_their_numbers() {
+        let k = warning_kind("slice 12: contour not star-shaped around its innermost point [-3.5, 370.68] and no ridge path");
+        assert_eq!(
+            k,
+            "slice #: contour not star-shaped around its innermost point [#, #] and no ridge path"
+        );
+        assert_eq!(
+            warning_kind("slices 2–3: lower contour 1: in 2 pieces; dropped 0.5 of 60.9105 mm²."),
+            "slices #–#: lower contour #: in # pieces; dropped # of # mm²."
+        );
+        // A sign belongs to its number; a dash between words or numbers does not.
+        assert_eq!(warning_kind("x −2 y-3 a-b 4-5"), "x # y-# a-b #-#");
+        assert_eq!(
+            warning_kind("slices 2–3: upper contour 1"),
+            warning_kind("slices 40–41: upper contour 12")
+        );
+        assert_ne!(
+            warning_kind("slices 2–3: upper contour 1"),
+            warning_kind("slices 2–3: lower contour 1")
+        );
+    }
+
+    #[test]
+    fn the_summary_lists_each_kind_of_warning_once_with_how_many_more() {
+        let mut warnings = vec!["mesh: 14 of 1000 faces cross another face".to_string()];
+        for i in 0..500 {
+            warnings.push(format!(
+                "slice {i}: contour not star-shaped around [{i}.5, -{i}]"
+            ));
+        }
+        for k in 0..8 {
+            warnings.push(format!(
+                "slices 3–4: kind {} number {k}",
+                char::from(b'a' + k)
+            ));
+        }
+        let kinds = warning_kinds(&warnings);
+        assert_eq!(kinds.len(), 10);
+        assert_eq!(kinds[0], (warnings[0].as_str(), 1));
+        assert_eq!(
+            kinds[1],
+            ("slice 0: contour not star-shaped around [0.5, -0]", 500)
+        );
+        assert_eq!(kinds[9], ("slices 3–4: kind h number 7", 1));
+
+        let report = Report {
+            format: FORMAT,
+            version: VERSION,
+            series: SeriesSummary::default(),
+            input: InputReport::default(),
+            tolerance_mm: 0.5,
+            units: "mm",
+            coordinates: "LPS",
+            surfaces_total: 1,
+            input_points_total: 100,
+            control_points_total: 32,
+            reduction_ratio: 100.0 / 32.0,
+            reduction_ratio_raw: 100.0 / 32.0,
+            max_error_mm: 0.1,
+            tolerance_met: true,
+            surfaces: vec![surface(0, 10, 0)],
+            mesh: None,
+            files: Vec::new(),
+            timings: Timings::default(),
+            peak_rss_mb: None,
+            warnings,
+            notes: Vec::new(),
+        };
+        let summary = report.summary("out");
+        let lines: Vec<&str> = summary.lines().collect();
+        assert!(lines.len() <= 12, "{summary}");
+        assert!(lines.contains(&"bskin: warning: mesh: 14 of 1000 faces cross another face"));
+        assert!(lines.contains(
+            &"bskin: warning: slice 0: contour not star-shaped around [0.5, -0] (and 499 more \
+              like it)"
+        ));
+        assert!(lines.contains(&"bskin: warning: slices 3–4: kind a number 0"));
+        assert!(!summary.contains("kind e"), "{summary}");
+        assert_eq!(
+            lines.last(),
+            Some(&"bskin: … and 4 more warning(s) of 4 other kind(s) in report.json")
         );
     }
 

@@ -24,6 +24,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+/// The log target of the warnings stages record ([`Control::warn`]): a default run keeps
+/// them off the screen, where hundreds (one per capped contour of an MR series) would bury
+/// the summary, and lists them in report.json and, a line per kind, in the summary.
+pub const WARNINGS_TARGET: &str = "bskin::run_warnings";
+
 /// Shared by all stages of one run: one flag that every stage checks, so one failure (or
 /// Ctrl-C) stops the whole pipeline.
 #[derive(Clone, Debug, Default)]
@@ -46,9 +51,10 @@ impl Control {
         }
     }
 
-    /// Record a warning for the report (and log it).
+    /// Record a warning for the report, and log it under [`WARNINGS_TARGET`] (off a default
+    /// run's screen: the summary lists each kind once; `-v` shows each as it happens).
     pub fn warn(&self, message: String) {
-        tracing::warn!("{message}");
+        tracing::warn!(target: WARNINGS_TARGET, "{message}");
         if let Ok(mut w) = self.warnings.lock() {
             w.push(message);
         }
