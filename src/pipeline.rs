@@ -230,7 +230,7 @@ pub fn run_surfaces(
                 }
                 RunInput::Sections(iter) => {
                     let sections = iter.map(|s| {
-                        let s = s?;
+                        let s = s2_contours::resolve(s?, ctl);
                         // Contours from elsewhere arrive compressed (or not): raw = as given.
                         let given = s.contours.iter().map(|c| c.points.len()).sum();
                         counts.count_section(&s, given, 0);

@@ -15,6 +15,7 @@ pub mod marching_squares;
 pub mod overlap;
 pub mod polygon;
 pub mod ridge;
+pub mod sections;
 pub mod simplify;
 pub mod spur;
 mod zones;

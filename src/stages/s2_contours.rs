@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::{Control, StageStats};
 use crate::geometry::contours::{extract_contours, ContourOptions};
+use crate::geometry::sections::{defect, resolved};
 use crate::section::{Section, SliceImage};
 use crate::{Error, Result};
 
@@ -50,6 +51,24 @@ pub fn compile(image: &SliceImage, opts: &ContourOptions) -> Result<CompiledSect
         points_raw: out.points_raw,
         dropped_small: out.dropped_small,
     })
+}
+
+/// A section from elsewhere (contour NDJSON) made one the construction can use: where its
+/// contours cross or nest against their hole flags ([`defect`]), they are replaced by the
+/// region they wind round ([`resolved`]) and a warning says what was wrong. A valid section
+/// passes unchanged; contours extracted from images are valid by construction.
+pub fn resolve(mut section: Section, ctl: &Control) -> Section {
+    if let Some(d) = defect(&section.contours) {
+        let given = section.contours.len();
+        section.contours = resolved(&section.contours);
+        ctl.warn(format!(
+            "slice {}: {d}; its {given} contour(s) replaced by the {} bounding the region they \
+             wind round",
+            section.index,
+            section.contours.len()
+        ));
+    }
+    section
 }
 
 pub fn run(
