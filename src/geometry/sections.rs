@@ -212,18 +212,19 @@ fn first_crossing(contours: &[Contour]) -> Option<Defect> {
 /// piece its outer contour (counter-clockwise), then its holes (clockwise). Empty when
 /// nothing is inside (every contour a hole, say).
 pub fn resolved(contours: &[Contour]) -> Vec<Contour> {
-    // Each contour's own fill as simple paths wound +1 (outer) or −1 (hole).
+    // Each contour's own fill as simple paths winding once round it: a piece's boundary
+    // counter-clockwise, its holes clockwise; all reversed for a hole contour, whose fill
+    // counts against.
     let mut paths: Vec<Vec<Point>> = Vec::new();
     for c in contours {
         for shape in c.points.simplify_shape(FillRule::NonZero) {
-            for path in shape {
+            for (j, path) in shape.into_iter().enumerate() {
                 let ccw = signed_area(&path) > 0.0;
-                // Piece boundaries run counter-clockwise and their holes clockwise; a hole
-                // contour contributes the same fill negatively, all reversed.
-                paths.push(if ccw == c.hole {
-                    path.into_iter().rev().collect()
-                } else {
+                let want_ccw = (j == 0) != c.hole;
+                paths.push(if ccw == want_ccw {
                     path
+                } else {
+                    path.into_iter().rev().collect()
                 });
             }
         }
@@ -392,6 +393,41 @@ mod tests {
         assert_eq!(r.len(), 3);
         assert!((area(&r) - area(&section)).abs() < 1e-6);
         assert_eq!(r.iter().filter(|c| c.hole).count(), 1);
+    }
+
+    #[test]
+    fn a_keyhole_ring_keeps_its_hole_when_resolved() {
+        // One contour round a ring: out along the outer square, in by a slit, back round the
+        // inner square the other way. Its non-zero fill is the ring, a piece with a hole.
+        let ring = Contour {
+            points: vec![
+                [10.0, 0.0],
+                [10.0, 10.0],
+                [-10.0, 10.0],
+                [-10.0, -10.0],
+                [10.0, -10.0],
+                [10.0, 0.0],
+                [5.0, 0.0],
+                [5.0, -5.0],
+                [-5.0, -5.0],
+                [-5.0, 5.0],
+                [5.0, 5.0],
+                [5.0, 0.0],
+            ],
+            hole: false,
+        };
+        let other = square(30.0, 0.0, 2.0, false);
+        let r = resolved(&[ring.clone(), other.clone()]);
+        assert_valid(&r);
+        assert!((area(&r) - (400.0 - 100.0 + 16.0)).abs() < 1e-6, "{r:?}");
+        assert_eq!(r.iter().filter(|c| c.hole).count(), 1, "{r:?}");
+        // As a hole of a larger contour it takes the ring away, leaving the middle.
+        let mut hole = ring;
+        hole.points.reverse();
+        hole.hole = true;
+        let r = resolved(&[square(0.0, 0.0, 20.0, false), hole]);
+        assert_valid(&r);
+        assert!((area(&r) - (1600.0 - 300.0)).abs() < 1e-6, "{r:?}");
     }
 
     #[test]

@@ -225,11 +225,13 @@ impl Report {
         let holes = self.surfaces.iter().filter(|x| x.kind == "hole").count();
         let _ = writeln!(
             s,
-            "bskin: {} surfaces ({holes} hole walls), {} control points for {} input points (reduction {:.1}×)",
+            "bskin: {} surfaces ({holes} hole walls), {} control points for {} input points \
+             (reduction {:.2}×, {:.2}× against the points before compression)",
             self.surfaces_total,
             self.control_points_total,
             self.input_points_total,
-            self.reduction_ratio
+            self.reduction_ratio,
+            self.reduction_ratio_raw
         );
         let unmet = self.surfaces.iter().filter(|x| !x.tolerance_met).count();
         let _ = writeln!(
@@ -482,8 +484,8 @@ mod tests {
             surfaces_total: 1,
             input_points_total: 100,
             control_points_total: 32,
-            reduction_ratio: 100.0 / 32.0,
-            reduction_ratio_raw: 100.0 / 32.0,
+            reduction_ratio: 2.5,
+            reduction_ratio_raw: 7.0,
             max_error_mm: 0.1,
             tolerance_met: true,
             surfaces: vec![surface(0, 10, 0)],
@@ -495,6 +497,10 @@ mod tests {
             notes: Vec::new(),
         };
         let summary = report.summary("out");
+        assert!(
+            summary.contains("(reduction 2.50×, 7.00× against the points before compression)"),
+            "{summary}"
+        );
         let lines: Vec<&str> = summary.lines().collect();
         assert!(lines.len() <= 12, "{summary}");
         assert!(lines.contains(&"bskin: warning: mesh: 14 of 1000 faces cross another face"));
