@@ -2,7 +2,7 @@
 //! themselves, holes anywhere) resolve into a valid section, and that section is the region
 //! the contours mean, checked point by point against winding numbers computed here.
 
-use bskin::geometry::polygon::{point_segment_distance, Point};
+use bskin::geometry::polygon::{point_segment_distance, signed_area, Point};
 use bskin::geometry::sections::{defect, resolved};
 use bskin::section::Contour;
 use proptest::prelude::*;
@@ -42,13 +42,7 @@ fn contour(c: Point, mut angles: Vec<f64>, radii: &[f64], sorted: bool, hole: bo
         .zip(radii)
         .map(|(t, r)| [c[0] + r * t.cos(), c[1] + r * t.sin()])
         .collect();
-    let area: f64 = (0..points.len())
-        .map(|i| {
-            let (a, b) = (points[i], points[(i + 1) % points.len()]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum();
-    if (area < 0.0) != hole {
+    if (signed_area(&points) < 0.0) != hole {
         points.reverse();
     }
     Contour { points, hole }
@@ -122,19 +116,7 @@ proptest! {
         };
         let section = vec![outer, ring(2.0, true), ring(1.0, false)];
         prop_assert_eq!(defect(&section), None);
-        let area = |cs: &[Contour]| -> f64 {
-            cs.iter()
-                .map(|c| {
-                    let n = c.points.len();
-                    (0..n)
-                        .map(|i| {
-                            let (a, b) = (c.points[i], c.points[(i + 1) % n]);
-                            0.5 * (a[0] * b[1] - b[0] * a[1])
-                        })
-                        .sum::<f64>()
-                })
-                .sum()
-        };
+        let area = |cs: &[Contour]| -> f64 { cs.iter().map(|c| signed_area(&c.points)).sum() };
         let r = resolved(&section);
         prop_assert_eq!(r.len(), 3);
         prop_assert!((area(&r) - area(&section)).abs() < 1e-6 * area(&section).abs().max(1.0));

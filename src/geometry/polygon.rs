@@ -531,33 +531,57 @@ fn no_edges_meeting(
 }
 
 /// How many pairs of edges whose x-ranges overlap `meet(i, j, edge i, edge j)` holds for,
-/// counted up to `limit`: a sweep over edges sorted by their smallest x, so typical contours
-/// cost O(n log n) rather than O(n²).
+/// counted up to `limit` (see [`edges_meeting_among`]).
 fn edges_meeting(
     pts: &[Point],
     limit: usize,
     meet: impl Fn(usize, usize, (Point, Point), (Point, Point)) -> bool,
 ) -> usize {
-    let n = pts.len();
-    let edge = |i: usize| (pts[i], pts[(i + 1) % n]);
-    let mut order: Vec<usize> = (0..n).collect();
-    let min_x = |i: usize| pts[i][0].min(pts[(i + 1) % n][0]);
+    edges_meeting_among(&[pts], limit, |(_, i), (_, j), e, f| meet(i, j, e, f))
+}
+
+/// How many pairs of edges of the closed polygons whose x-ranges overlap
+/// `meet((polygon, i), (polygon, j), edge, edge)` holds for, counted up to `limit`: a sweep
+/// over edges sorted by their smallest x (ties in polygon and edge order), so typical contours
+/// cost O(n log n) rather than O(n²). The first edge handed to `meet` is the one the sweep
+/// reached last.
+pub(crate) fn edges_meeting_among(
+    polys: &[&[Point]],
+    limit: usize,
+    mut meet: impl FnMut((usize, usize), (usize, usize), (Point, Point), (Point, Point)) -> bool,
+) -> usize {
+    let edge = |(k, i): (usize, usize)| {
+        let pts = polys[k];
+        (pts[i], pts[(i + 1) % pts.len()])
+    };
+    let mut order: Vec<(usize, usize)> = polys
+        .iter()
+        .enumerate()
+        .flat_map(|(k, pts)| (0..pts.len()).map(move |i| (k, i)))
+        .collect();
+    let min_x = |e: (usize, usize)| {
+        let (a, b) = edge(e);
+        a[0].min(b[0])
+    };
     order.sort_by(|&a, &b| min_x(a).total_cmp(&min_x(b)));
-    let mut active: Vec<usize> = Vec::new();
+    let mut active: Vec<(usize, usize)> = Vec::new();
     let mut count = 0;
-    for &i in &order {
-        let (a, b) = edge(i);
+    for &e in &order {
+        let (a, b) = edge(e);
         let lo = a[0].min(b[0]);
-        active.retain(|&j| pts[j][0].max(pts[(j + 1) % n][0]) >= lo);
-        for &j in &active {
-            if meet(i, j, (a, b), edge(j)) {
+        active.retain(|&f| {
+            let (c, d) = edge(f);
+            c[0].max(d[0]) >= lo
+        });
+        for &f in &active {
+            if meet(e, f, (a, b), edge(f)) {
                 count += 1;
                 if count >= limit {
                     return count;
                 }
             }
         }
-        active.push(i);
+        active.push(e);
     }
     count
 }

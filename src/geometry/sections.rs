@@ -27,7 +27,7 @@ use std::fmt;
 use i_overlay::core::fill_rule::FillRule;
 use i_overlay::float::simplify::SimplifyShape;
 
-use super::polygon::{bbox, contains, proper_crossing, signed_area, Point};
+use super::polygon::{bbox, contains, edges_meeting_among, proper_crossing, signed_area, Point};
 use crate::section::Contour;
 
 /// The first thing found wrong with a section's contours (indices as given).
@@ -170,42 +170,28 @@ fn misnested(contours: &[Contour]) -> Option<Defect> {
 /// The first proper crossing between two edges of the section (not adjacent edges of one
 /// contour), in sweep order along x.
 fn first_crossing(contours: &[Contour]) -> Option<Defect> {
-    let mut edges: Vec<(usize, usize, Point, Point)> = Vec::new();
-    for (k, c) in contours.iter().enumerate() {
-        let n = c.points.len();
-        for i in 0..n {
-            edges.push((k, i, c.points[i], c.points[(i + 1) % n]));
+    let polys: Vec<&[Point]> = contours.iter().map(|c| c.points.as_slice()).collect();
+    let mut found = None;
+    edges_meeting_among(&polys, 1, |(k, i), (l, j), (a, b), (c, d)| {
+        let n = polys[k].len();
+        if k == l && ((i + 1) % n == j || (j + 1) % n == i) {
+            return false;
         }
-    }
-    edges.sort_by(|x, y| x.2[0].min(x.3[0]).total_cmp(&y.2[0].min(y.3[0])));
-    let mut active: Vec<usize> = Vec::new();
-    for e in 0..edges.len() {
-        let (k, i, a, b) = edges[e];
-        let lo = a[0].min(b[0]);
-        active.retain(|&f| edges[f].2[0].max(edges[f].3[0]) >= lo);
-        for &f in &active {
-            let (l, j, c, d) = edges[f];
-            if k == l {
-                let n = contours[k].points.len();
-                if (i + 1) % n == j || (j + 1) % n == i {
-                    continue;
-                }
+        let Some(s) = proper_crossing(a, b, c, d) else {
+            return false;
+        };
+        let at = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
+        found = Some(if k == l {
+            Defect::CrossesItself { contour: k, at }
+        } else {
+            Defect::Crossing {
+                contours: [k.min(l), k.max(l)],
+                at,
             }
-            if let Some(s) = proper_crossing(a, b, c, d) {
-                let at = [a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])];
-                return Some(if k == l {
-                    Defect::CrossesItself { contour: k, at }
-                } else {
-                    Defect::Crossing {
-                        contours: [k.min(l), k.max(l)],
-                        at,
-                    }
-                });
-            }
-        }
-        active.push(e);
-    }
-    None
+        });
+        true
+    });
+    found
 }
 
 /// The region the contours mean (see the module docs), as disjoint simple contours: per
