@@ -881,37 +881,144 @@ pub fn shared_edges(ends: &[(&[P3], bool)]) -> Vec<[P3; 2]> {
 /// they meet at a shallow angle): the unmatched edges make a figure of eight, which no
 /// triangles on its own vertices close without overlapping one another or the patches next
 /// to it. Split at the crossing, it is two simple cycles, one each way round.
-pub fn seal_problem(ends: &[(&[P3], bool)]) -> (Vec<Triangle>, Vec<[P3; 3]>) {
+///
+/// First, a corner of a thin triangle of unmatched edges, within `sliver_mm` of the opposite
+/// edge, is put on that edge ([`sliver_points`]), where it is kept if the seal then uses
+/// every edge once each way.
+pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, Vec<[P3; 3]>) {
+    let (balance, order) = directed_edges(ends);
+    let slivers = sliver_points(ends, &balance, sliver_mm);
+    if !slivers.is_empty() {
+        let split = split_loops(ends, &slivers);
+        // The writer puts all of a problem's points into the loops as given, so a crossing
+        // may not lie on an edge a sliver's corner made.
+        let on_sliver_edge = |[a, b, _]: &[P3; 3]| {
+            slivers
+                .iter()
+                .any(|[.., v]| bits(v) == bits(a) || bits(v) == bits(b))
+        };
+        if let Some((triangles, mut points)) = seal_crossing(&as_ends(&split)) {
+            if !points.iter().any(on_sliver_edge) {
+                points.extend(slivers);
+                return (triangles, points);
+            }
+        }
+    }
+    seal_crossing(ends).unwrap_or_else(|| (seal_edges(balance, &order), Vec::new()))
+}
+
+/// [`seal_problem`] without slivers: the seal with the crossing points put on their edges,
+/// dropping those that leave an edge used more than twice; `None` where none is left to drop
+/// and edges are still overused.
+fn seal_crossing(ends: &[(&[P3], bool)]) -> Option<(Vec<Triangle>, Vec<[P3; 3]>)> {
     let edges = directed_edges(ends);
     let mut crossings = crossing_points(ends, &edges.0);
     // Every crossing first. Three edges crossing one another near a point can make a small
     // triangle that the cycles wind round twice, its edges then used more than twice: the
     // crossings at such edges' ends are dropped and the rest split again, until every edge
-    // is used once each way; if none is left to drop, the loops are sealed unsplit.
-    while !crossings.is_empty() {
+    // is used once each way.
+    loop {
         let points: Vec<[P3; 3]> = crossings.iter().flatten().copied().collect();
-        let split: Vec<Vec<P3>> = ends
-            .iter()
-            .map(|(l, _)| with_edge_points(l, &points))
-            .collect();
-        let split_ends: Vec<(&[P3], bool)> = split
-            .iter()
-            .zip(ends)
-            .map(|(l, (_, top))| (l.as_slice(), *top))
-            .collect();
-        let (balance, order) = directed_edges(&split_ends);
+        let split = split_loops(ends, &points);
+        let (balance, order) = directed_edges(&as_ends(&split));
         let triangles = seal_edges(balance, &order);
         let overused = overused_ends(&order, &triangles);
         if overused.is_empty() {
-            return (triangles, points);
+            return Some((triangles, points));
         }
         let before = crossings.len();
         crossings.retain(|[[_, _, x], _]| !overused.contains(&bits(x)));
         if crossings.len() == before {
-            break;
+            return None;
         }
     }
-    (seal_edges(edges.0, &edges.1), Vec::new())
+}
+
+/// Each loop of `ends` with `points` put on its edges ([`with_edge_points`]).
+fn split_loops(ends: &[(&[P3], bool)], points: &[[P3; 3]]) -> Vec<(Vec<P3>, bool)> {
+    ends.iter()
+        .map(|(l, top)| (with_edge_points(l, points), *top))
+        .collect()
+}
+
+/// `loops` as [`seal`] takes them.
+fn as_ends(loops: &[(Vec<P3>, bool)]) -> Vec<(&[P3], bool)> {
+    loops.iter().map(|(l, top)| (l.as_slice(), *top)).collect()
+}
+
+/// Where three unmatched edges of one problem's loops (`ends` as in [`seal`], `balance` from
+/// [`directed_edges`]) close a triangle with a corner within `sliver_mm` of the opposite
+/// edge, that edge from another loop than the corner's two: the corner put on the edge, as
+/// `[a, b, v]` (see [`seal_problem`]).
+///
+/// Such a sliver is where two pieces of an intermediate contour, cut apart by a chain, put
+/// the chain's end just off the edge of the loop they tile. Sealed with a flat triangle, the
+/// chain runs across that edge, and the patches either side of the plane touch there, off
+/// their vertices: where the slices are tilted, float rounding puts the touch either side of
+/// the plane, and mesh checkers count both faces as crossing. With the corner on the edge,
+/// the loops meet at it.
+fn sliver_points(ends: &[(&[P3], bool)], balance: &Balance, sliver_mm: f64) -> Vec<[P3; 3]> {
+    use std::collections::{HashMap, HashSet};
+    // Every unmatched edge used once, as its patch uses it, with its loop.
+    let mut edges: Vec<(P3, P3, usize)> = Vec::new();
+    for (k, (l, top)) in ends.iter().enumerate() {
+        let l = dedup_loop(l);
+        for i in 0..l.len() {
+            let (a, b) = (l[i], l[(i + 1) % l.len()]);
+            let (a, b) = if *top { (b, a) } else { (a, b) };
+            if l.len() > 1 && balance.get(&(bits(&a), bits(&b))) == Some(&1) {
+                edges.push((a, b, k));
+            }
+        }
+    }
+    let mut loop_of: HashMap<EdgeKey, usize> = HashMap::new();
+    let mut next: HashMap<[u64; 3], Vec<P3>> = HashMap::new();
+    for &(a, b, k) in &edges {
+        loop_of.entry((bits(&a), bits(&b))).or_insert(k);
+        next.entry(bits(&a)).or_default().push(b);
+    }
+    let mut seen: HashSet<[[u64; 3]; 3]> = HashSet::new();
+    let mut long_edges: HashSet<EdgeKey> = HashSet::new();
+    let mut out = Vec::new();
+    for &(a, b, _) in &edges {
+        for v in next.get(&bits(&b)).into_iter().flatten() {
+            if bits(v) == bits(&a) || !loop_of.contains_key(&(bits(v), bits(&a))) {
+                continue;
+            }
+            let mut key = [bits(&a), bits(&b), bits(v)];
+            key.sort_unstable();
+            if !seen.insert(key) {
+                continue;
+            }
+            // The corner nearest the opposite edge, the first of equals.
+            let corners = [(a, b, *v), (b, *v, a), (*v, a, b)];
+            let Some((d, p, q, r)) = corners
+                .iter()
+                .filter_map(|&(p, q, r)| Some((off_segment(&r, &p, &q)?, p, q, r)))
+                .min_by(|x, y| x.0.total_cmp(&y.0))
+            else {
+                continue;
+            };
+            let of = |x: &P3, y: &P3| loop_of.get(&(bits(x), bits(y))).copied();
+            let long = of(&p, &q);
+            if d <= sliver_mm
+                && long != of(&q, &r)
+                && long != of(&r, &p)
+                && long_edges.insert(undirected_key(&p, &q))
+            {
+                let (p, q) = undirected(p, q);
+                out.push([p, q, r]);
+            }
+        }
+    }
+    out
+}
+
+/// How far `r` lies from segment `pq`, where its foot falls strictly inside the segment.
+fn off_segment(r: &P3, p: &P3, q: &P3) -> Option<f64> {
+    let d = sub(q, p);
+    let t = dot(&sub(r, p), &d) / dot(&d, &d);
+    (t > 0.0 && t < 1.0).then(|| dist2(r, &add(p, &scale(&d, t))).sqrt())
 }
 
 /// The end points of the edges that the patches (each loop edge once, in `order` from

@@ -250,7 +250,7 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
         [1., 1.],
     ]);
     let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&l, false), (&r, false)];
-    let (tris, points) = seal_problem(&ends);
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
     // One crossing, on the rectangle's side and on the piece's.
     assert_eq!(points.len(), 2, "{points:?}");
     for [_, _, x] in &points {
@@ -277,8 +277,52 @@ fn seal_problem_splits_loops_that_cross_into_a_gap_and_an_overlap() {
     assert!(each_edge_once_each_way(&all));
     // Loops that tile the plane get neither triangles nor points.
     let tile = at_height_1(&[[1., 0.], [2., 0.], [2., 1.], [1., 1.]]);
-    let (tris, points) = seal_problem(&[(&below, true), (&l, false), (&tile, false)]);
+    let (tris, points) = seal_problem(&[(&below, true), (&l, false), (&tile, false)], SLIVER_MM);
     assert!(tris.is_empty() && points.is_empty());
+}
+
+/// Thinnest seal triangle whose corner `seal_problem` may put on the opposite edge here.
+const SLIVER_MM: f64 = 0.05;
+
+/// A rectangle below, cut in two above by a chain whose ends lie off the rectangle's sides:
+/// at the bottom by `off` (outside for negative, inside for positive), at the top on the
+/// side, between its vertices. Each end leaves a thin triangle of unmatched edges; sealed
+/// flat, the chain would cross the rectangle's side there, and the patches either side of
+/// the plane touch off their vertices. Within the bound, each corner is put on the side
+/// instead: no seal triangle, the rectangle's row takes both chain ends, and every edge is
+/// used once each way. Beyond it, the bottom triangle is sealed as before.
+#[test]
+fn seal_problem_puts_a_chain_end_just_off_a_loop_onto_its_edge() {
+    let below = at_height_1(&[[0., 0.], [2., 0.], [2., 1.], [0., 1.]]);
+    for off in [-0.01, 0.01, 0.0] {
+        let v = [1.0, off, 1.0];
+        let left = at_height_1(&[[0., 0.], [1., off], [1., 1.], [0., 1.]]);
+        let right = at_height_1(&[[1., off], [2., 0.], [2., 1.], [1., 1.]]);
+        let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+        let (tris, points) = seal_problem(&ends, SLIVER_MM);
+        assert!(tris.is_empty(), "off {off}: {tris:?}");
+        assert_eq!(points.len(), 2, "off {off}: {points:?}");
+        let row = with_edge_points(&below, &points);
+        assert_eq!(
+            row,
+            vec![below[0], v, below[1], below[2], [1., 1., 1.], below[3]],
+            "off {off}"
+        );
+        assert!(with_edge_points(&left, &points) == left);
+        assert!(with_edge_points(&right, &points) == right);
+        let all = with_patches_on_rows(&tris, &ends, &points);
+        assert!(open_edges(&all).is_empty() && each_edge_once_each_way(&all));
+    }
+    // A gap wider than the bound is a gap: sealed by a triangle, and its corner stays put.
+    let left = at_height_1(&[[0., 0.], [1., -0.2], [1., 1.], [0., 1.]]);
+    let right = at_height_1(&[[1., -0.2], [2., 0.], [2., 1.], [1., 1.]]);
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
+    assert_eq!(tris.len(), 1, "{tris:?}");
+    assert!((flat_area(&tris[0]).abs() - 0.2).abs() < 1e-12);
+    assert_eq!(points, vec![[[0., 1., 1.], [2., 1., 1.], [1., 1., 1.]]]);
+    let all = with_patches_on_rows(&tris, &ends, &points);
+    assert!(open_edges(&all).is_empty() && each_edge_once_each_way(&all));
 }
 
 /// Two pieces above a square, each bulging past its bottom side, where they overlap: the
@@ -293,7 +337,7 @@ fn seal_problem_drops_the_crossings_that_would_use_an_edge_twice() {
     let left = at_height_1(&[[0., 0.], [1.3, -0.3], [0.9, 2.], [0., 2.]]);
     let right = at_height_1(&[[0.7, -0.3], [2., 0.], [2., 2.], [1.1, 2.]]);
     let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
-    let (tris, points) = seal_problem(&ends);
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
     // Of the six crossings, only the pieces' sides crossing inside the square is kept.
     assert_eq!(points.len(), 2, "{points:?}");
     for [_, _, x] in &points {

@@ -153,6 +153,13 @@ fn ccw_in(frame: &SliceFrame, section: &Section, ids: &[usize]) -> Vec<Vec<Point
 /// cell made more tiny shared edges than it removed; gaps wider than this are sealed.
 const CONFORM_EPS_CELLS: f64 = 1e-3;
 
+/// Widest seal triangle, in distance-map cells, whose thin corner the mesh puts on the
+/// opposite edge: the chains between pieces of an intermediate contour end up to a fifth of a
+/// cell off the loop they tile (the GE head's 128 such slivers: at most 0.019 mm, cells of
+/// 0.1 mm). Half a cell is the default chordal tolerance. Only the mesh moves; the loops
+/// are fitted as they are.
+const SLIVER_CELLS: f64 = 0.5;
+
 /// Make the loops of one problem share their vertices wherever they share boundary (see
 /// [`conform`]), so the surfaces meeting there are stitched without T-junctions.
 fn conform_loops<'a>(curves: impl Iterator<Item = &'a mut Intermediate>, cell_mm: f64) {
@@ -541,6 +548,9 @@ pub struct Assembler {
     channel_mm: f64,
     /// Sampling of the slits of keyhole loops built here ([`slit_step`]).
     slit_mm: f64,
+    /// Widest seal triangle whose thin corner the mesh puts on the opposite edge instead
+    /// ([`crate::mesh::seal_problem`]).
+    sliver_mm: f64,
 }
 
 impl Assembler {
@@ -552,6 +562,7 @@ impl Assembler {
             max_curves,
             channel_mm: 4.0 * cell_mm,
             slit_mm: slit_step(cell_mm),
+            sliver_mm: SLIVER_CELLS * cell_mm,
             ..Default::default()
         }
     }
@@ -879,7 +890,7 @@ impl Assembler {
                                 .map(|(_, c)| (c.as_slice(), false)),
                         )
                         .collect();
-                    let (seal, seal_points) = seal_problem(&ends);
+                    let (seal, seal_points) = seal_problem(&ends, self.sliver_mm);
                     let shared = shared_edges(&ends);
                     let mut seal = Some(seal);
                     let mut lower_keyholes: Vec<Option<Keyhole>> =
@@ -1005,7 +1016,7 @@ impl Assembler {
                         .collect();
                     let loops: Vec<(&[[f64; 3]], bool)> =
                         lifted.iter().map(|(_, _, c)| (c.as_slice(), top)).collect();
-                    let (seal, seal_points) = seal_problem(&loops);
+                    let (seal, seal_points) = seal_problem(&loops, self.sliver_mm);
                     let mut seal = Some(seal);
                     for (k, hole, points) in lifted {
                         let end = RegionCurve { points, origin };
