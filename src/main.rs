@@ -427,6 +427,7 @@ fn run(args: RunArgs, quiet: bool, ctl: &Control) -> Result<()> {
                 folded_surfaces: surfaces.iter().filter(|s| s.folded_rows > 0).count(),
                 folded_rows: surfaces.iter().map(|s| s.folded_rows).sum(),
                 row_loops_cut: surfaces.iter().map(|s| s.row_loops_cut).sum(),
+                row_cusps_cut: surfaces.iter().map(|s| s.row_cusps_cut).sum(),
                 crossing_faces: crossings.as_ref().map(|c| c.crossing_faces),
                 crossings: crossings.map_or_else(Vec::new, |c| c.pairs),
             }),

@@ -353,7 +353,7 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["coordinates"], "RAS");
-    assert_eq!(report["version"], 7);
+    assert_eq!(report["version"], 8);
     assert!(report["notes"].is_array());
     let files: Vec<&str> = report["files"]
         .as_array()
@@ -384,6 +384,7 @@ fn ras_is_recorded_and_unknown_formats_are_usage_errors() {
     assert_eq!(mesh["seal_triangles"].as_u64(), Some(sum("seal_triangles")));
     assert_eq!(mesh["folded_rows"].as_u64(), Some(sum("folded_rows")));
     assert_eq!(mesh["row_loops_cut"].as_u64(), Some(sum("row_loops_cut")));
+    assert_eq!(mesh["row_cusps_cut"].as_u64(), Some(sum("row_cusps_cut")));
     assert_eq!(mesh["folded_surfaces"], 0);
     // The mesh was searched for faces crossing one another (tests/mesh_watertight.rs compares
     // the count with the whole mesh's): none on this phantom.

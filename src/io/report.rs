@@ -19,8 +19,10 @@ pub const FORMAT: &str = "bskin-report";
 /// `mesh.folded_rows`: where the mesh folds through itself. 6: `mesh.crossing_faces` and
 /// `mesh.crossings`: faces of the written mesh crossing another, between surfaces too. 7: per
 /// surface `row_loops_cut` and `mesh.row_loops_cut`: loops within the chordal tolerance cut off
-/// the mesh's rows (`folded_rows` counts the rows as meshed, after the cuts).
-pub const VERSION: u32 = 7;
+/// the mesh's rows (`folded_rows` counts the rows as meshed, after the cuts). 8: per surface
+/// `row_cusps_cut` and `mesh.row_cusps_cut`: cusps within the chordal tolerance cut off the
+/// mesh's rows.
+pub const VERSION: u32 = 8;
 
 #[derive(Serialize, Debug, Clone)]
 pub struct Report {
@@ -117,6 +119,9 @@ pub struct SurfaceReport {
     /// Loops within the chordal tolerance cut off its rows ([`crate::mesh::RowLoops::Cut`]):
     /// folds below the mesh's resolution, which its mesh leaves out.
     pub row_loops_cut: usize,
+    /// Cusps within the chordal tolerance cut off its rows ([`crate::mesh::cut_cusps`]):
+    /// hooks below the mesh's resolution, where a row turns back over a short edge.
+    pub row_cusps_cut: usize,
 }
 
 /// How the mesh files were tessellated; absent when no mesh file was asked for.
@@ -126,7 +131,8 @@ pub struct MeshReport {
     pub chordal_fraction: f64,
     /// The chordal tolerance: triangles stay within it of the surfaces (mm), except up to the
     /// first curve from a shared end loop, where they move onto the loop, and where a row's
-    /// loop is cut off (`row_loops_cut`), whose vertices move by at most this much.
+    /// loop or cusp is cut off (`row_loops_cut`, `row_cusps_cut`), whose vertices move by at
+    /// most this much.
     pub chordal_mm: f64,
     pub triangles: usize,
     pub seal_triangles: usize,
@@ -136,6 +142,8 @@ pub struct MeshReport {
     pub folded_rows: usize,
     /// Loops cut off rows in all (per surface: `row_loops_cut`).
     pub row_loops_cut: usize,
+    /// Cusps cut off rows in all (per surface: `row_cusps_cut`).
+    pub row_cusps_cut: usize,
     /// Faces of the mesh, as `mesh.stl` holds it (single precision), crossing another face
     /// that shares no vertex with them, within a surface or between two; null when the check
     /// was turned off (`--no-crossing-check`).
@@ -399,6 +407,7 @@ mod tests {
             mesh_rows: rows,
             folded_rows: folded,
             row_loops_cut: 0,
+            row_cusps_cut: 0,
         }
     }
 

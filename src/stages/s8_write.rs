@@ -104,6 +104,7 @@ pub fn summarise(s: &Surface, tolerance: f64) -> SurfaceReport {
         mesh_rows: 0,
         folded_rows: 0,
         row_loops_cut: 0,
+        row_cusps_cut: 0,
     }
 }
 
@@ -203,6 +204,7 @@ pub fn run(
             report.mesh_rows = folds.rows;
             report.folded_rows = folds.folded;
             report.row_loops_cut = folds.loops_cut;
+            report.row_cusps_cut = folds.cusps_cut;
         }
         written.surfaces.push(report);
         if keep {
