@@ -26,7 +26,7 @@
 
 use crate::bspline::surface::SkinnedSurface;
 use crate::bspline::vecops::{add, dot, norm, scale, sub};
-use crate::geometry::polygon::{crosses_itself, orient, proper_crossing, Point};
+use crate::geometry::polygon::{crosses_itself, dist, orient, proper_crossing, Point};
 use crate::section::SliceFrame;
 
 pub mod crossings;
@@ -187,14 +187,12 @@ pub fn cut_cusps(row: &mut [P3], flat: &mut [Point], bound: f64) -> usize {
             ) else {
                 return cut;
             };
-            let (e, f) = (
-                [flat[i][0] - flat[p][0], flat[i][1] - flat[p][1]],
-                [flat[q][0] - flat[i][0], flat[q][1] - flat[i][1]],
-            );
-            if e[0] * f[0] + e[1] * f[1] >= 0.0 {
+            let turn = (flat[i][0] - flat[p][0]) * (flat[q][0] - flat[i][0])
+                + (flat[i][1] - flat[p][1]) * (flat[q][1] - flat[i][1]);
+            if turn >= 0.0 {
                 continue;
             }
-            let (le, lf) = (e[0].hypot(e[1]), f[0].hypot(f[1]));
+            let (le, lf) = (dist(flat[p], flat[i]), dist(flat[i], flat[q]));
             if le.max(lf) > bound {
                 continue;
             }
@@ -812,20 +810,30 @@ type DirectedEdges = (Balance, Vec<(P3, P3)>);
 fn directed_edges(ends: &[(&[P3], bool)]) -> DirectedEdges {
     let mut balance = Balance::default();
     let mut order: Vec<(P3, P3)> = Vec::new();
-    for (l, top) in ends {
-        let l = dedup_loop(l);
-        if l.len() < 2 {
-            continue;
-        }
-        for i in 0..l.len() {
-            let (a, b) = (l[i], l[(i + 1) % l.len()]);
-            let (a, b) = if *top { (b, a) } else { (a, b) };
-            *balance.entry((bits(&a), bits(&b))).or_default() += 1;
-            *balance.entry((bits(&b), bits(&a))).or_default() -= 1;
-            order.push((a, b));
-        }
+    for (_, a, b) in patch_edges(ends) {
+        *balance.entry((bits(&a), bits(&b))).or_default() += 1;
+        *balance.entry((bits(&b), bits(&a))).or_default() -= 1;
+        order.push((a, b));
     }
     (balance, order)
+}
+
+/// Each edge of a problem's end loops as its patch uses it (a `top` loop's against its
+/// direction), in the loops' order, with its loop's index; loops of fewer than two distinct
+/// points have none.
+fn patch_edges<'a>(ends: &'a [(&[P3], bool)]) -> impl Iterator<Item = (usize, P3, P3)> + 'a {
+    ends.iter().enumerate().flat_map(|(k, &(l, top))| {
+        let l = dedup_loop(l);
+        let n = if l.len() < 2 { 0 } else { l.len() };
+        (0..n).map(move |i| {
+            let (a, b) = (l[i], l[(i + 1) % n]);
+            if top {
+                (k, b, a)
+            } else {
+                (k, a, b)
+            }
+        })
+    })
 }
 
 /// Triangles closing what the end loops of one problem leave open on their plane.
@@ -953,6 +961,7 @@ pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, V
     let slivers = sliver_points(ends, &balance, sliver_mm);
     if !slivers.is_empty() {
         let split = split_loops(ends, &slivers);
+        let split_ends = as_ends(&split);
         // The writer puts all of a problem's points into the loops as given, so a crossing
         // may not lie on an edge a sliver's corner made.
         let on_sliver_edge = |[a, b, _]: &[P3; 3]| {
@@ -960,22 +969,25 @@ pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, V
                 .iter()
                 .any(|[.., v]| bits(v) == bits(a) || bits(v) == bits(b))
         };
-        if let Some((triangles, mut points)) = seal_crossing(&as_ends(&split)) {
+        let split_balance = directed_edges(&split_ends).0;
+        if let Some((triangles, mut points)) = seal_crossing(&split_ends, &split_balance) {
             if !points.iter().any(on_sliver_edge) {
                 points.extend(slivers);
                 return (triangles, points);
             }
         }
     }
-    seal_crossing(ends).unwrap_or_else(|| (seal_edges(balance, &order), Vec::new()))
+    seal_crossing(ends, &balance).unwrap_or_else(|| (seal_edges(balance, &order), Vec::new()))
 }
 
 /// [`seal_problem`] without slivers: the seal with the crossing points put on their edges,
 /// dropping those that leave an edge used more than twice; `None` where none is left to drop
-/// and edges are still overused.
-fn seal_crossing(ends: &[(&[P3], bool)]) -> Option<(Vec<Triangle>, Vec<[P3; 3]>)> {
-    let edges = directed_edges(ends);
-    let mut crossings = crossing_points(ends, &edges.0);
+/// and edges are still overused. `balance`: of the loops' edges ([`directed_edges`]).
+fn seal_crossing(
+    ends: &[(&[P3], bool)],
+    balance: &Balance,
+) -> Option<(Vec<Triangle>, Vec<[P3; 3]>)> {
+    let mut crossings = crossing_points(ends, balance);
     // Every crossing first. Three edges crossing one another near a point can make a small
     // triangle that the cycles wind round twice, its edges then used more than twice: the
     // crossings at such edges' ends are dropped and the rest split again, until every edge
@@ -1023,27 +1035,19 @@ fn as_ends(loops: &[(Vec<P3>, bool)]) -> Vec<(&[P3], bool)> {
 fn sliver_points(ends: &[(&[P3], bool)], balance: &Balance, sliver_mm: f64) -> Vec<[P3; 3]> {
     use std::collections::{HashMap, HashSet};
     // Every unmatched edge used once, as its patch uses it, with its loop.
-    let mut edges: Vec<(P3, P3, usize)> = Vec::new();
-    for (k, (l, top)) in ends.iter().enumerate() {
-        let l = dedup_loop(l);
-        for i in 0..l.len() {
-            let (a, b) = (l[i], l[(i + 1) % l.len()]);
-            let (a, b) = if *top { (b, a) } else { (a, b) };
-            if l.len() > 1 && balance.get(&(bits(&a), bits(&b))) == Some(&1) {
-                edges.push((a, b, k));
-            }
-        }
-    }
+    let edges: Vec<(usize, P3, P3)> = patch_edges(ends)
+        .filter(|(_, a, b)| balance.get(&(bits(a), bits(b))) == Some(&1))
+        .collect();
     let mut loop_of: HashMap<EdgeKey, usize> = HashMap::new();
     let mut next: HashMap<[u64; 3], Vec<P3>> = HashMap::new();
-    for &(a, b, k) in &edges {
+    for &(k, a, b) in &edges {
         loop_of.entry((bits(&a), bits(&b))).or_insert(k);
         next.entry(bits(&a)).or_default().push(b);
     }
     let mut seen: HashSet<[[u64; 3]; 3]> = HashSet::new();
     let mut long_edges: HashSet<EdgeKey> = HashSet::new();
     let mut out = Vec::new();
-    for &(a, b, _) in &edges {
+    for &(_, a, b) in &edges {
         for v in next.get(&bits(&b)).into_iter().flatten() {
             if bits(v) == bits(&a) || !loop_of.contains_key(&(bits(v), bits(&a))) {
                 continue;
