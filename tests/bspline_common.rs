@@ -201,3 +201,42 @@ fn warped_parameters_move_points_along_the_curve_and_keep_the_tolerance() {
         assert!(dist(&plain_at, &on_circle(w)) < 0.2, "w {w}: {plain_at:?}");
     }
 }
+
+/// Where a warp stands a contour nearly still over several spans of the common knots (a fan),
+/// the curve crosses that stretch at an even pace along its polygon's edge and never turns
+/// back. Plain least squares rang there: the extra points creep along one edge between points
+/// that move fast, and the curve ran back and forth along the edge (abdomen surface 197).
+#[test]
+fn a_contour_standing_still_under_a_warp_never_turns_back() {
+    let opts = FitOptions::new(0.05);
+    let contours = vec![lift(&circle(300, 20.0), 0.0), lift(&circle(48, 21.0), 2.0)];
+    // Own fraction at common parameter w: on at the common pace to 0.3, then 0.3 → 0.305
+    // (within one of the 48 edges) over [0.3, 0.6], then on round the rest.
+    let f = |w: f64| {
+        if w < 0.3 {
+            w
+        } else if w < 0.6 {
+            0.3 + (w - 0.3) / 0.3 * 0.005
+        } else {
+            0.305 + (w - 0.6) / 0.4 * 0.695
+        }
+    };
+    let table: Vec<f64> = (0..=1024).map(|j| f(j as f64 / 1024.0)).collect();
+    let fit = fit_common_densest(&contours, &[None, Some(table)], &opts).unwrap();
+    assert!(fit.met, "{:?}", fit.max_errors);
+    let n = fit.knots.n_control() as f64;
+    let angle = |p: [f64; 3]| p[1].atan2(p[0]);
+    let curve = &fit.curves[1];
+    let samples = 4000;
+    let mut prev = angle(curve.eval(0.0));
+    let mut back = 0.0f64;
+    for k in 1..=samples {
+        let a = angle(curve.eval(k as f64 / samples as f64 * n));
+        let step = (a - prev + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        back = back.min(step);
+        prev = a;
+    }
+    // Counter-clockwise all the way round (a turn back is a negative step).
+    assert!(back >= 0.0, "turns back by {back} rad ({n} control points)");
+}
