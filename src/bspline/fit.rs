@@ -318,7 +318,8 @@ pub(crate) fn solve_lsq<const D: usize>(
             }
         }
     }
-    // Second differences of the control points, towards zero (the right-hand side's part).
+    // Second differences of the control points, towards zero: the right-hand side takes
+    // nothing.
     let c = STRAIGHT_WEIGHT.sqrt();
     for &k in straight {
         a.add_span_outer(k % n1, &[c, -2.0 * c, c, 0.0]);
