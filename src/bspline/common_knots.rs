@@ -459,6 +459,8 @@ fn trial<const D: usize>(
         let perimeter: f64 = (0..combined.len())
             .map(|k| dist(&combined[k], &combined[(k + 1) % combined.len()]))
             .sum();
+        let creeping = CREEP * perimeter / n1 as f64;
+        let at = |t: f64| polygon_at(combined, u, n1 as f64, t);
         let mut j = 0usize;
         for s in 0..n1 {
             let (a, b) = (dom[s], dom[s + 1]);
@@ -466,14 +468,13 @@ fn trial<const D: usize>(
                 j += 1;
             }
             if !(j < u.len() && u[j] < b) {
-                let at = |t: f64| polygon_at(combined, u, n1 as f64, t);
-                if dist(&at(a), &at(b)) / (b - a) < CREEP * perimeter / n1 as f64 {
+                if dist(&at(a), &at(b)) / (b - a) < creeping {
                     straight[s] = true;
                     straight[(s + 1) % n1] = true;
                 }
                 for f in [1.0 / 3.0, 2.0 / 3.0] {
                     let t = a + (b - a) * f;
-                    ex.push((polygon_at(combined, u, n1 as f64, t), t));
+                    ex.push((at(t), t));
                 }
             }
         }
