@@ -958,23 +958,27 @@ pub fn shared_edges(ends: &[(&[P3], bool)]) -> Vec<[P3; 2]> {
 /// every edge once each way.
 pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, Vec<[P3; 3]>) {
     let (balance, order) = directed_edges(ends);
-    let slivers = sliver_points(ends, &balance, sliver_mm);
-    if !slivers.is_empty() {
+    let mut slivers = sliver_points(ends, &balance, sliver_mm);
+    while !slivers.is_empty() {
         let split = split_loops(ends, &slivers);
         let split_ends = as_ends(&split);
-        // The writer puts all of a problem's points into the loops as given, so a crossing
-        // may not lie on an edge a sliver's corner made.
-        let on_sliver_edge = |[a, b, _]: &[P3; 3]| {
-            slivers
-                .iter()
-                .any(|[.., v]| bits(v) == bits(a) || bits(v) == bits(b))
-        };
         let split_balance = directed_edges(&split_ends).0;
-        if let Some((triangles, mut points)) = seal_crossing(&split_ends, &split_balance) {
-            if !points.iter().any(on_sliver_edge) {
-                points.extend(slivers);
-                return (triangles, points);
-            }
+        let Some((triangles, mut points)) = seal_crossing(&split_ends, &split_balance) else {
+            break;
+        };
+        // The writer puts all of a problem's points into the loops as given, so a crossing
+        // may not lie on an edge that only the split made (between a sliver's corner and an
+        // end of the edge it was put on): those slivers are dropped and the rest tried
+        // again (one problem can hold dozens of slivers and a crossing).
+        let made = |[a, b, _]: &[P3; 3], [p, q, v]: &[P3; 3]| {
+            let e = undirected_key(a, b);
+            e == undirected_key(p, v) || e == undirected_key(v, q)
+        };
+        let before = slivers.len();
+        slivers.retain(|s| !points.iter().any(|x| made(x, s)));
+        if slivers.len() == before {
+            points.extend(slivers);
+            return (triangles, points);
         }
     }
     seal_crossing(ends, &balance).unwrap_or_else(|| (seal_edges(balance, &order), Vec::new()))

@@ -325,6 +325,44 @@ fn seal_problem_puts_a_chain_end_just_off_a_loop_onto_its_edge() {
     assert!(open_edges(&all).is_empty() && each_edge_once_each_way(&all));
 }
 
+/// As above, but the two pieces' sides along the chain cross each other just above the chain's
+/// end: the crossing lies on the right piece's side that ends at the sliver's corner, an edge
+/// of the loop as given, so the writer can put both points in. Both are kept: the corner goes
+/// on the rectangle's side, and the seal closes with the patches. Before, any crossing on an
+/// edge at a sliver's corner gave up every sliver of the problem (on the GE head, a branching
+/// with 20 slivers whose touching faces were left).
+#[test]
+fn seal_problem_keeps_a_sliver_whose_corner_ends_a_crossed_edge() {
+    let below = at_height_1(&[[0., 0.], [2., 0.], [2., 1.], [0., 1.]]);
+    let v = [1.0, -0.01, 1.0];
+    let left = at_height_1(&[
+        [0., 0.],
+        [1., -0.01],
+        [0.7, 0.2],
+        [0.45, 0.6],
+        [1., 1.],
+        [0., 1.],
+    ]);
+    let right = at_height_1(&[[0.5, 0.5], [1., -0.01], [2., 0.], [2., 1.], [1., 1.]]);
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
+    assert_eq!(
+        with_edge_points(&below, &points),
+        vec![below[0], v, below[1], below[2], [1., 1., 1.], below[3]],
+        "{points:?}"
+    );
+    let crossed = [[0.5, 0.5, 1.0], v];
+    assert!(
+        points
+            .iter()
+            .any(|[a, b, _]| crossed.contains(a) && crossed.contains(b)),
+        "{points:?}"
+    );
+    let all = with_patches_on_rows(&tris, &ends, &points);
+    assert!(open_edges(&all).is_empty());
+    assert!(each_edge_once_each_way(&all));
+}
+
 /// Two pieces above a square, each bulging past its bottom side, where they overlap: the
 /// plane there is covered twice above and not at all below. Split at every crossing, the
 /// seal winds round that patch of plane twice and uses its edges twice the same way;
