@@ -1197,6 +1197,15 @@ fn crossing_points(ends: &[(&[P3], bool)], balance: &Balance) -> Vec<[[P3; 3]; 2
 /// Least sine of an ear's corner angle that [`triangulate`] clips while it has such ears.
 const MIN_EAR_SINE: f64 = 1e-9;
 
+/// How close (mm) another vertex may come to an ear's new diagonal before it stands in the
+/// ear's way. A seal cycle can hold a vertex exactly half-way along a diagonal (the pieces of
+/// a chain sampled at a fixed step), float rounding putting it either side by 10⁻¹⁵ mm; cut
+/// there, the ear leaves a triangle without area with that vertex on its edge (a T-junction),
+/// and the patch rising from the vertex touches the ear's face. Below the rounding of an STL
+/// file's float32 coordinates (3·10⁻⁵ mm at 256 mm), so a vertex it would put across the
+/// diagonal blocks the ear too.
+const EAR_DIAGONAL_SLACK_MM: f64 = 1e-5;
+
 /// Triangles of a simple closed polygon lying in a plane, in its own orientation: ear clipping
 /// in the plane of its Newell normal, ears with a corner angle first; where no proper ear is
 /// left (collinear points: a T-junction's zero-area sliver), the most convex corner goes.
@@ -1234,6 +1243,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
         let corner = |k: usize| (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
         let is_ear = |k: usize| {
             let (a, b, c) = corner(k);
+            let slack = EAR_DIAGONAL_SLACK_MM * (q[a][0] - q[c][0]).hypot(q[a][1] - q[c][1]);
             orient(q[a], q[b], q[c]) > 0.0
                 && idx.iter().all(|&j| {
                     j == a
@@ -1244,7 +1254,7 @@ fn triangulate(poly: &[P3]) -> Vec<Triangle> {
                         || q[j] == q[c]
                         || !(orient(q[a], q[b], q[j]) >= 0.0
                             && orient(q[b], q[c], q[j]) >= 0.0
-                            && orient(q[c], q[a], q[j]) >= 0.0)
+                            && orient(q[c], q[a], q[j]) >= -slack)
                 })
         };
         // An ear with a corner of no angle (three points of a straight run of edges) would
@@ -1513,5 +1523,51 @@ mod tests {
         let (mut r, mut f) = (star.clone(), in_plane(&frame, &star));
         assert_eq!(cut_loops(&frame, &mut r, &mut f, 1.0), 0);
         assert_eq!(r, star);
+    }
+
+    /// A seal cycle (the GE head's, at a branching) with a vertex half-way along the diagonal
+    /// its first ear would cut, 10⁻¹² mm beyond it. Clipped there, the rest ended in a
+    /// triangle without area, the vertex on its edge; the vertex now blocks that ear, and
+    /// every triangle has area, together the polygon's.
+    #[test]
+    fn a_vertex_on_an_ears_diagonal_blocks_the_ear() {
+        let (a, c): (P3, P3) = ([-65.9486, 7.6417, 2.0], [-66.1614, 7.303, 2.0]);
+        // Half-way from a to c, pushed off the diagonal away from g.
+        let (dx, dy) = (c[0] - a[0], c[1] - a[1]);
+        let off = 1e-12 / dx.hypot(dy);
+        let d = [
+            (a[0] + c[0]) / 2.0 + dy * off,
+            (a[1] + c[1]) / 2.0 - dx * off,
+            2.0,
+        ];
+        let poly = [
+            a,
+            [-66.0327, 7.2221, 2.0],
+            c,
+            [-66.155, 7.4565, 2.0],
+            d,
+            [-64.9277, 10.2296, 2.0],
+        ];
+        let area = |t: &[P3]| {
+            let n = t.len();
+            (0..n)
+                .map(|i| t[i][0] * t[(i + 1) % n][1] - t[(i + 1) % n][0] * t[i][1])
+                .sum::<f64>()
+                / 2.0
+        };
+        assert!(orient([a[0], a[1]], [c[0], c[1]], [d[0], d[1]]) != 0.0);
+        let tris = triangulate(&poly);
+        assert_eq!(tris.len(), 4);
+        let least = tris
+            .iter()
+            .map(|t| area(t).abs())
+            .fold(f64::INFINITY, f64::min);
+        assert!(least > 1e-4, "a triangle of {least} mm²");
+        let total: f64 = tris.iter().map(|t| area(t)).sum();
+        assert!(
+            (total - area(&poly)).abs() < 1e-12,
+            "{total} against {}",
+            area(&poly)
+        );
     }
 }
