@@ -953,9 +953,9 @@ pub fn shared_edges(ends: &[(&[P3], bool)]) -> Vec<[P3; 2]> {
 /// triangles on its own vertices close without overlapping one another or the patches next
 /// to it. Split at the crossing, it is two simple cycles, one each way round.
 ///
-/// First, a corner of a thin triangle of unmatched edges, within `sliver_mm` of the opposite
-/// edge, is put on that edge ([`sliver_points`]), where it is kept if the seal then uses
-/// every edge once each way.
+/// First, a corner of a thin triangle (or the corners of a thin polygon) of unmatched edges,
+/// within `sliver_mm` of the opposite edge, is put on that edge ([`sliver_points`]), where it
+/// is kept if the seal then uses every edge once each way.
 pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, Vec<[P3; 3]>) {
     let (balance, order) = directed_edges(ends);
     let mut slivers = sliver_points(ends, &balance, sliver_mm);
@@ -967,21 +967,50 @@ pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, V
             break;
         };
         // The writer puts all of a problem's points into the loops as given, so a crossing
-        // may not lie on an edge that only the split made (between a sliver's corner and an
-        // end of the edge it was put on): those slivers are dropped and the rest tried
-        // again (one problem can hold dozens of slivers and a crossing).
-        let made = |[a, b, _]: &[P3; 3], [p, q, v]: &[P3; 3]| {
-            let e = undirected_key(a, b);
-            e == undirected_key(p, v) || e == undirected_key(v, q)
-        };
+        // may not lie on an edge that only the split made (between the corners put on one
+        // edge and its ends): that edge's slivers are dropped and the rest tried again (one
+        // problem can hold dozens of slivers and a crossing).
+        let crossed: std::collections::HashSet<EdgeKey> = points
+            .iter()
+            .map(|[a, b, _]| undirected_key(a, b))
+            .collect();
+        let spoilt: Vec<EdgeKey> = made_edges(&slivers)
+            .into_iter()
+            .filter(|(made, _)| crossed.contains(made))
+            .map(|(_, long)| long)
+            .collect();
         let before = slivers.len();
-        slivers.retain(|s| !points.iter().any(|x| made(x, s)));
+        slivers.retain(|[p, q, _]| !spoilt.contains(&undirected_key(p, q)));
         if slivers.len() == before {
             points.extend(slivers);
             return (triangles, points);
         }
     }
     seal_crossing(ends, &balance).unwrap_or_else(|| (seal_edges(balance, &order), Vec::new()))
+}
+
+/// The edges that putting `slivers` (`[p, q, v]`) on their edges makes, each with the long
+/// edge `p`–`q` it is part of: between `p`, the corners in order along the edge, and `q`.
+fn made_edges(slivers: &[[P3; 3]]) -> Vec<(EdgeKey, EdgeKey)> {
+    let mut on: std::collections::BTreeMap<EdgeKey, (P3, P3, Vec<P3>)> = Default::default();
+    for [p, q, v] in slivers {
+        on.entry(undirected_key(p, q))
+            .or_insert_with(|| (*p, *q, Vec::new()))
+            .2
+            .push(*v);
+    }
+    let mut out = Vec::new();
+    for (long, (p, q, mut vs)) in on {
+        let d = sub(&q, &p);
+        vs.sort_by(|a, b| dot(&sub(a, &p), &d).total_cmp(&dot(&sub(b, &p), &d)));
+        let chain: Vec<P3> = std::iter::once(p).chain(vs).chain([q]).collect();
+        out.extend(
+            chain
+                .windows(2)
+                .map(|w| (undirected_key(&w[0], &w[1]), long)),
+        );
+    }
+    out
 }
 
 /// [`seal_problem`] without slivers: the seal with the crossing points put on their edges,
@@ -1036,6 +1065,13 @@ fn as_ends(loops: &[(Vec<P3>, bool)]) -> Vec<(&[P3], bool)> {
 /// their vertices: where the slices are tilted, float rounding puts the touch either side of
 /// the plane, and mesh checkers count both faces as crossing. With the corner on the edge,
 /// the loops meet at it.
+///
+/// Then thin polygons: an unmatched edge and a path of two to [`MAX_SLIVER_CORNERS`] corners
+/// back along it on other loops' unmatched edges, each corner within `sliver_mm` of the edge
+/// and nearer its start than the one before: all the corners go on the edge. Two pieces'
+/// sides along a chain can run that close over a millimetre (the GE head's tongue at
+/// (2.6, −8.7, −13.6): 0.011 mm apart), where flat triangles sealing the gap pass a hair from
+/// the loops' vertices and the patches touch them.
 fn sliver_points(ends: &[(&[P3], bool)], balance: &Balance, sliver_mm: f64) -> Vec<[P3; 3]> {
     use std::collections::{HashMap, HashSet};
     // Every unmatched edge used once, as its patch uses it, with its loop.
@@ -1082,7 +1118,85 @@ fn sliver_points(ends: &[(&[P3], bool)], balance: &Balance, sliver_mm: f64) -> V
             }
         }
     }
+    // Then thin polygons: a long edge and a path of other loops' edges back along it, every
+    // corner within `sliver_mm` of it (two pieces' sides along one chain that run a
+    // hundredth of a millimetre apart: one side's corners go on the other's edge).
+    let mut corners: HashSet<[u64; 3]> = out.iter().map(|[.., v]| bits(v)).collect();
+    for &(k, p, q) in &edges {
+        if long_edges.contains(&undirected_key(&p, &q)) {
+            continue;
+        }
+        let ctx = SliverPath {
+            p,
+            q,
+            of: k,
+            next: &next,
+            loop_of: &loop_of,
+            sliver_mm,
+        };
+        let mut path = Vec::new();
+        if ctx.back(q, 1.0, &mut path)
+            && path.iter().all(|v| !corners.contains(&bits(v)))
+            && long_edges.insert(undirected_key(&p, &q))
+        {
+            let (a, b) = undirected(p, q);
+            corners.extend(path.iter().map(bits));
+            out.extend(path.into_iter().map(|v| [a, b, v]));
+        }
+    }
     out
+}
+
+/// Longest path of corners [`sliver_points`] puts on one edge.
+const MAX_SLIVER_CORNERS: usize = 6;
+
+/// The search for a thin polygon of unmatched edges along edge `p`→`q` of loop `of`.
+struct SliverPath<'a> {
+    p: P3,
+    q: P3,
+    of: usize,
+    next: &'a std::collections::HashMap<[u64; 3], Vec<P3>>,
+    loop_of: &'a std::collections::HashMap<EdgeKey, usize>,
+    sliver_mm: f64,
+}
+
+impl SliverPath<'_> {
+    /// Whether unmatched edges of other loops than `of` lead from `at` (at `t` along `p`→`q`)
+    /// back to `p` through at least two and at most [`MAX_SLIVER_CORNERS`] corners, each
+    /// nearer `p` than the one before and within `sliver_mm` of the edge; `path` then holds
+    /// them (the first found, in the order of `next`).
+    fn back(&self, at: P3, t: f64, path: &mut Vec<P3>) -> bool {
+        let other = |a: &P3, b: &P3| {
+            self.loop_of
+                .get(&(bits(a), bits(b)))
+                .is_some_and(|&l| l != self.of)
+        };
+        for w in self.next.get(&bits(&at)).into_iter().flatten() {
+            if !other(&at, w) {
+                continue;
+            }
+            if bits(w) == bits(&self.p) {
+                if path.len() >= 2 {
+                    return true;
+                }
+                continue;
+            }
+            if path.len() == MAX_SLIVER_CORNERS {
+                continue;
+            }
+            let d = sub(&self.q, &self.p);
+            let along = dot(&sub(w, &self.p), &d) / dot(&d, &d);
+            let near = off_segment(w, &self.p, &self.q).is_some_and(|o| o <= self.sliver_mm);
+            if near && along < t {
+                path.push(*w);
+                if self.back(*w, along, path) {
+                    return true;
+                }
+                path.pop();
+            }
+        }
+        false
+    }
 }
 
 /// How far `r` lies from segment `pq`, where its foot falls strictly inside the segment.

@@ -363,6 +363,58 @@ fn seal_problem_keeps_a_sliver_whose_corner_ends_a_crossed_edge() {
     assert!(each_edge_once_each_way(&all));
 }
 
+/// Two pieces above a rectangle whose sides along the chain between them run up to 0.006 apart
+/// (the left one bowed away through two points): a thin polygon of four edges, not a triangle.
+/// Both corners go on the right piece's side, in order, and nothing needs sealing. Before,
+/// only triangles were slivers: the gap was sealed with two flat triangles whose edge passed
+/// a hair from the loops' vertices (on the GE head, a chain end's tongue where three
+/// patches touched).
+#[test]
+fn seal_problem_puts_a_thin_polygons_corners_on_its_long_edge() {
+    let below = at_height_1(&[[0., 0.], [2., 0.], [2., 1.], [0., 1.]]);
+    let left = at_height_1(&[
+        [0., 0.],
+        [1., 0.],
+        [0.996, 0.3],
+        [0.994, 0.7],
+        [1., 1.],
+        [0., 1.],
+    ]);
+    let right = at_height_1(&[[1., 0.], [2., 0.], [2., 1.], [1., 1.]]);
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
+    assert!(tris.is_empty(), "{tris:?}");
+    assert_eq!(
+        with_edge_points(&right, &points),
+        vec![right[0], right[1], right[2], right[3], left[3], left[2]],
+        "{points:?}"
+    );
+    assert!(with_edge_points(&left, &points) == left);
+    // The chain's ends lie on the rectangle's sides (triangles without area).
+    assert_eq!(
+        with_edge_points(&below, &points),
+        vec![below[0], left[1], below[1], below[2], left[4], below[3]]
+    );
+    let all = with_patches_on_rows(&tris, &ends, &points);
+    assert!(open_edges(&all).is_empty() && each_edge_once_each_way(&all));
+    // Wider than the bound at one corner: sealed as before, and no corner of it moves.
+    let left = at_height_1(&[
+        [0., 0.],
+        [1., 0.],
+        [0.996, 0.3],
+        [0.9, 0.7],
+        [1., 1.],
+        [0., 1.],
+    ]);
+    let ends: Vec<(&[P3], bool)> = vec![(&below, true), (&left, false), (&right, false)];
+    let (tris, points) = seal_problem(&ends, SLIVER_MM);
+    assert!(
+        points.iter().all(|[.., v]| *v == left[1] || *v == left[4]),
+        "{points:?}"
+    );
+    assert_eq!(tris.len(), 2);
+}
+
 /// Two pieces above a square, each bulging past its bottom side, where they overlap: the
 /// plane there is covered twice above and not at all below. Split at every crossing, the
 /// seal winds round that patch of plane twice and uses its edges twice the same way;
