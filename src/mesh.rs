@@ -1645,8 +1645,13 @@ mod tests {
     /// every triangle has area, together the polygon's.
     #[test]
     fn a_vertex_on_an_ears_diagonal_blocks_the_ear() {
-        let (a, c): (P3, P3) = ([-65.9486, 7.6417, 2.0], [-66.1614, 7.303, 2.0]);
-        // Half-way from a to c, pushed off the diagonal away from g.
+        let (a, g, c): (P3, P3, P3) = (
+            [-65.9486, 7.6417, 2.0],
+            [-66.0327, 7.2221, 2.0],
+            [-66.1614, 7.303, 2.0],
+        );
+        // Half-way from a to c, pushed off the diagonal a–c to the side away from g (where
+        // a test without slack let the ear at g be cut).
         let (dx, dy) = (c[0] - a[0], c[1] - a[1]);
         let off = 1e-12 / dx.hypot(dy);
         let d = [
@@ -1654,14 +1659,7 @@ mod tests {
             (a[1] + c[1]) / 2.0 - dx * off,
             2.0,
         ];
-        let poly = [
-            a,
-            [-66.0327, 7.2221, 2.0],
-            c,
-            [-66.155, 7.4565, 2.0],
-            d,
-            [-64.9277, 10.2296, 2.0],
-        ];
+        let poly = [a, g, c, [-66.155, 7.4565, 2.0], d, [-64.9277, 10.2296, 2.0]];
         let area = |t: &[P3]| {
             let n = t.len();
             (0..n)
