@@ -990,7 +990,8 @@ pub fn seal_problem(ends: &[(&[P3], bool)], sliver_mm: f64) -> (Vec<Triangle>, V
 }
 
 /// The edges that putting `slivers` (`[p, q, v]`) on their edges makes, each with the long
-/// edge `p`–`q` it is part of: between `p`, the corners in order along the edge, and `q`.
+/// edge `p`–`q` it is part of: between `p`, the corners in order along the edge (as
+/// [`with_edge_points`] puts them), and `q`.
 fn made_edges(slivers: &[[P3; 3]]) -> Vec<(EdgeKey, EdgeKey)> {
     let mut on: std::collections::BTreeMap<EdgeKey, (P3, P3, Vec<P3>)> = Default::default();
     for [p, q, v] in slivers {
@@ -1000,10 +1001,11 @@ fn made_edges(slivers: &[[P3; 3]]) -> Vec<(EdgeKey, EdgeKey)> {
             .push(*v);
     }
     let mut out = Vec::new();
-    for (long, (p, q, mut vs)) in on {
-        let d = sub(&q, &p);
-        vs.sort_by(|a, b| dot(&sub(a, &p), &d).total_cmp(&dot(&sub(b, &p), &d)));
-        let chain: Vec<P3> = std::iter::once(p).chain(vs).chain([q]).collect();
+    for (long, (p, q, vs)) in on {
+        let chain: Vec<P3> = std::iter::once(p)
+            .chain(in_order_along(&p, &q, &vs))
+            .chain([q])
+            .collect();
         out.extend(
             chain
                 .windows(2)
@@ -1101,7 +1103,7 @@ fn sliver_points(ends: &[(&[P3], bool)], balance: &Balance, sliver_mm: f64) -> V
             let corners = [(a, b, *v), (b, *v, a), (*v, a, b)];
             let Some((d, p, q, r)) = corners
                 .iter()
-                .filter_map(|&(p, q, r)| Some((off_segment(&r, &p, &q)?, p, q, r)))
+                .filter_map(|&(p, q, r)| Some((off_segment(&r, &p, &q)?.0, p, q, r)))
                 .min_by(|x, y| x.0.total_cmp(&y.0))
             else {
                 continue;
@@ -1184,10 +1186,10 @@ impl SliverPath<'_> {
             if path.len() == MAX_SLIVER_CORNERS {
                 continue;
             }
-            let d = sub(&self.q, &self.p);
-            let along = dot(&sub(w, &self.p), &d) / dot(&d, &d);
-            let near = off_segment(w, &self.p, &self.q).is_some_and(|o| o <= self.sliver_mm);
-            if near && along < t {
+            let Some((off, along)) = off_segment(w, &self.p, &self.q) else {
+                continue;
+            };
+            if off <= self.sliver_mm && along < t {
                 path.push(*w);
                 if self.back(*w, along, path) {
                     return true;
@@ -1199,11 +1201,12 @@ impl SliverPath<'_> {
     }
 }
 
-/// How far `r` lies from segment `pq`, where its foot falls strictly inside the segment.
-fn off_segment(r: &P3, p: &P3, q: &P3) -> Option<f64> {
+/// How far `r` lies from segment `pq`, and where its foot falls along it (0 at `p`, 1 at
+/// `q`), where the foot falls strictly inside the segment.
+fn off_segment(r: &P3, p: &P3, q: &P3) -> Option<(f64, f64)> {
     let d = sub(q, p);
     let t = dot(&sub(r, p), &d) / dot(&d, &d);
-    (t > 0.0 && t < 1.0).then(|| dist2(r, &add(p, &scale(&d, t))).sqrt())
+    (t > 0.0 && t < 1.0).then(|| (dist2(r, &add(p, &scale(&d, t))).sqrt(), t))
 }
 
 /// The end points of the edges that the patches (each loop edge once, in `order` from
@@ -1245,14 +1248,19 @@ pub fn with_edge_points(l: &[P3], points: &[[P3; 3]]) -> Vec<P3> {
         out.push(a);
         let (lo, hi) = undirected(a, b);
         if let Some(xs) = on.get(&(bits(&lo), bits(&hi))) {
-            let d = sub(&b, &a);
-            let mut along: Vec<(f64, P3)> = xs.iter().map(|x| (dot(&sub(x, &a), &d), *x)).collect();
-            along.sort_by(|u, v| u.0.total_cmp(&v.0).then(bits(&u.1).cmp(&bits(&v.1))));
-            along.dedup_by(|u, v| u.1 == v.1);
-            out.extend(along.into_iter().map(|(_, x)| x));
+            out.extend(in_order_along(&a, &b, xs));
         }
     }
     out
+}
+
+/// `xs` (points on the edge from `a` to `b`) in order from `a`, each once.
+fn in_order_along(a: &P3, b: &P3, xs: &[P3]) -> Vec<P3> {
+    let d = sub(b, a);
+    let mut along: Vec<(f64, P3)> = xs.iter().map(|x| (dot(&sub(x, a), &d), *x)).collect();
+    along.sort_by(|u, v| u.0.total_cmp(&v.0).then(bits(&u.1).cmp(&bits(&v.1))));
+    along.dedup_by(|u, v| u.1 == v.1);
+    along.into_iter().map(|(_, x)| x).collect()
 }
 
 /// The points where two unmatched edges of the loops (`balance` from [`directed_edges`])
